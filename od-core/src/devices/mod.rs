@@ -1,0 +1,3 @@
+//! The devices' dictionaries and behaviour, one module per product.
+
+pub mod sgh10;

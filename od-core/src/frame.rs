@@ -1,0 +1,77 @@
+//! CAN frames as the core sees them: an identifier, a remote flag and up to eight data bytes.
+
+/// A CAN identifier: 11-bit standard or 29-bit extended.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug)]
+pub enum CanId {
+    /// 11-bit identifier (0..=0x7FF).
+    Std(u16),
+    /// 29-bit identifier (0..=0x1FFF_FFFF).
+    Ext(u32),
+}
+
+impl CanId {
+    /// The raw identifier value, without any frame-format flag.
+    pub const fn raw(self) -> u32 {
+        match self {
+            CanId::Std(id) => id as u32,
+            CanId::Ext(id) => id,
+        }
+    }
+
+    /// The identifier a CANopen COB-ID entry (1005h, 1014h, 18xxh.01 ...) designates:
+    /// bit 29 selects the 29-bit format, the low bits are the identifier.
+    pub const fn from_cob_id(cob_id: u32) -> CanId {
+        if cob_id & (1 << 29) != 0 {
+            CanId::Ext(cob_id & 0x1FFF_FFFF)
+        } else {
+            CanId::Std((cob_id & 0x7FF) as u16)
+        }
+    }
+
+    /// True for an 11-bit identifier equal to `id`.
+    pub const fn is_std(self, id: u16) -> bool {
+        matches!(self, CanId::Std(x) if x == id)
+    }
+}
+
+/// One CAN 2.0 frame.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Frame {
+    /// Identifier.
+    pub id: CanId,
+    /// Remote transmission request: no data, `len` is the requested DLC.
+    pub rtr: bool,
+    /// Data length code, 0..=8.
+    pub len: u8,
+    /// Payload; bytes past `len` are zero.
+    pub data: [u8; 8],
+}
+
+impl Frame {
+    /// A data frame. Bytes beyond the eighth are dropped.
+    pub fn new(id: CanId, payload: &[u8]) -> Frame {
+        let len = payload.len().min(8);
+        let mut data = [0u8; 8];
+        data[..len].copy_from_slice(&payload[..len]);
+        Frame { id, rtr: false, len: len as u8, data }
+    }
+
+    /// A data frame with an 11-bit identifier.
+    pub fn std(id: u16, payload: &[u8]) -> Frame {
+        Frame::new(CanId::Std(id), payload)
+    }
+
+    /// A remote frame requesting `len` bytes.
+    pub fn remote(id: CanId, len: u8) -> Frame {
+        Frame { id, rtr: true, len: len.min(8), data: [0; 8] }
+    }
+
+    /// The valid payload bytes (empty for a remote frame).
+    pub fn payload(&self) -> &[u8] {
+        if self.rtr {
+            &[]
+        } else {
+            &self.data[..self.len as usize]
+        }
+    }
+}

@@ -1,0 +1,24 @@
+//! Heartbeat producer (1017h).
+
+use crate::node::Core;
+use crate::time::Instant;
+
+/// Heartbeat producer state.
+#[derive(Clone, Default)]
+pub struct Heartbeat {}
+
+/// Restarts the producer (after boot-up).
+pub fn reset(core: &mut Core, now: Instant) {
+    let _ = (core, now);
+}
+
+/// Sends the heartbeat when due.
+pub fn poll(core: &mut Core, now: Instant) {
+    let _ = (core, now);
+}
+
+/// When the next heartbeat is due.
+pub fn next_deadline(core: &Core) -> Option<Instant> {
+    let _ = core;
+    None
+}

@@ -1,0 +1,30 @@
+//! `od-core`: the sans-IO CANopen and J1939 core that every SIKO firmware links.
+//!
+//! It owns every protocol decision and nothing else: it never waits, never touches hardware,
+//! keeps no global state and takes time as an argument. The firmware, the host tests and the
+//! simulator are thin shells that move frames in and [`node::Output`]s out.
+#![no_std]
+#![deny(missing_docs)]
+
+pub mod abort;
+pub mod bitrate;
+pub mod devices;
+pub mod emcy;
+pub mod frame;
+pub mod guarding;
+pub mod heartbeat;
+pub mod lss;
+pub mod nmt;
+pub mod node;
+pub mod od;
+pub mod pdo;
+pub mod sdo;
+pub mod storage;
+pub mod time;
+
+pub use abort::Abort;
+pub use bitrate::Bitrate;
+pub use frame::{CanId, Frame};
+pub use nmt::NmtState;
+pub use node::{Core, Device, Node, Output};
+pub use time::Instant;

@@ -1,0 +1,363 @@
+//! A CANopen node: the dictionary, the services and the device, driven by frames and time.
+//!
+//! The shell (firmware, host test, simulator) feeds it with [`Node::on_frame`] and
+//! [`Node::poll`], performs the [`Output`]s it takes from [`Node::next_output`], and sleeps
+//! until [`Node::next_deadline`]. The node never waits, never reads a clock and keeps no
+//! global state.
+
+use crate::abort::Abort;
+use crate::bitrate::Bitrate;
+use crate::emcy::{self, Emcy};
+use crate::frame::{CanId, Frame};
+use crate::guarding::{self, Guarding};
+use crate::heartbeat::{self, Heartbeat};
+use crate::lss::{self, Lss};
+use crate::nmt::{NmtCommand, NmtRequest, NmtState};
+use crate::od::{CoreHook, Entry, GroupMask, Hook, Od};
+use crate::pdo::{self, PdoEvent, Pdos};
+use crate::sdo::{ObjectAccess, SdoServer, Written};
+use crate::time::{earliest, Instant};
+
+/// Something the shell must do for the node.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Output {
+    /// Put this frame on the bus.
+    Frame(Frame),
+    /// Persist the current values of these parameter groups, then report the result with
+    /// [`Node::store_done`].
+    Store(GroupMask),
+    /// Switch the CAN controller to this bit rate now (the node sends and receives nothing
+    /// meanwhile).
+    SetBitrate(Bitrate),
+}
+
+/// How many outputs may wait for the shell. A node produces at most a handful per frame
+/// or tick; the shell drains the queue after each call.
+pub const OUTBOX_DEPTH: usize = 32;
+
+/// Outputs waiting for the shell.
+#[derive(Clone, Default)]
+pub struct Outbox {
+    q: heapless::Deque<Output, OUTBOX_DEPTH>,
+}
+
+impl Outbox {
+    /// Queues an output. When the shell has not drained the queue the oldest frame is kept
+    /// and the new one dropped, as a full CAN transmit mailbox would.
+    pub fn push(&mut self, out: Output) {
+        let _ = self.q.push_back(out);
+    }
+
+    /// Queues a frame.
+    pub fn send(&mut self, frame: Frame) {
+        self.push(Output::Frame(frame));
+    }
+
+    /// Takes the oldest output.
+    pub fn pop(&mut self) -> Option<Output> {
+        self.q.pop_front()
+    }
+
+    /// Nothing waiting?
+    pub fn is_empty(&self) -> bool {
+        self.q.is_empty()
+    }
+}
+
+/// Which reset the node performs (NMT 81h / 82h, power-on).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum ResetKind {
+    /// Power-on or NMT Reset Node (81h): application and communication re-initialised.
+    Node,
+    /// NMT Reset Communication (82h): communication re-initialised only.
+    Communication,
+}
+
+/// The node's state that every service and the device may touch: the dictionary, the NMT
+/// state, the active node-ID and bit rate, and the output queue.
+pub struct Core {
+    /// Object dictionary.
+    pub od: Od,
+    /// NMT state.
+    pub nmt: NmtState,
+    /// Active node-ID (1..=127), or 255 while unconfigured (LSS only).
+    pub node_id: u8,
+    /// Active bit rate.
+    pub bitrate: Bitrate,
+    /// Outputs for the shell.
+    pub out: Outbox,
+    /// EMCY producer and error history.
+    pub emcy: Emcy,
+    /// Heartbeat producer.
+    pub heartbeat: Heartbeat,
+    /// Node and life guarding.
+    pub guarding: Guarding,
+    /// SYNC consumer and PDOs.
+    pub pdo: Pdos,
+    /// LSS slave.
+    pub lss: Lss,
+}
+
+impl Core {
+    /// Does the node take part in CANopen (has a valid node-ID)?
+    pub fn configured(&self) -> bool {
+        (1..=127).contains(&self.node_id)
+    }
+}
+
+/// What a device (a CiA 406 encoder, the AP10T display ...) adds to the core.
+pub trait Device {
+    /// The device's dictionary, sorted by (index, sub).
+    fn table(&self) -> &'static [Entry];
+
+    /// Checks and applies a write to an entry whose hook is `Hook::Device(_)`. Called after
+    /// the type, access and limit checks; on `Ok` the core stores `value`.
+    fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        let _ = (core, pos, value, now);
+        Ok(())
+    }
+
+    /// A receive PDO (0-based number `n`) has written its mapped entries.
+    fn on_rpdo(&mut self, core: &mut Core, n: u8, now: Instant) {
+        let _ = (core, n, now);
+    }
+
+    /// Called after a reset, with the dictionary already re-initialised.
+    fn on_reset(&mut self, core: &mut Core, kind: ResetKind, now: Instant) {
+        let _ = (core, kind, now);
+    }
+
+    /// Device timers.
+    fn poll(&mut self, core: &mut Core, now: Instant) {
+        let _ = (core, now);
+    }
+
+    /// When the device next needs [`Device::poll`].
+    fn next_deadline(&self) -> Option<Instant> {
+        None
+    }
+}
+
+/// A CANopen node running device `D`.
+pub struct Node<D: Device> {
+    core: Core,
+    device: D,
+    sdo: SdoServer,
+}
+
+impl<D: Device> Node<D> {
+    /// A node that has just been powered on: INITIALISATION, with `node_id` and `bitrate`
+    /// from its stored configuration. The boot-up frame goes out on the first [`Node::poll`].
+    pub fn new(device: D, node_id: u8, bitrate: Bitrate) -> Node<D> {
+        let od = Od::new(device.table(), node_id);
+        let core = Core {
+            od,
+            nmt: NmtState::Initialising,
+            node_id,
+            bitrate,
+            out: Outbox::default(),
+            emcy: Emcy::default(),
+            heartbeat: Heartbeat::default(),
+            guarding: Guarding::default(),
+            pdo: Pdos::default(),
+            lss: Lss::default(),
+        };
+        Node { core, device, sdo: SdoServer::new() }
+    }
+
+    /// The shared state.
+    pub fn core(&self) -> &Core {
+        &self.core
+    }
+
+    /// The device.
+    pub fn device(&self) -> &D {
+        &self.device
+    }
+
+    /// The device and the core together, for the shell's sensor samples and key presses.
+    pub fn split(&mut self) -> (&mut D, &mut Core) {
+        (&mut self.device, &mut self.core)
+    }
+
+    /// The NMT state.
+    pub fn nmt_state(&self) -> NmtState {
+        self.core.nmt
+    }
+
+    /// Takes the next thing the shell must do.
+    pub fn next_output(&mut self) -> Option<Output> {
+        self.core.out.pop()
+    }
+
+    /// Handles one received frame.
+    pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        // LSS works in every NMT state and without a node-ID (CiA 305).
+        if frame.id == CanId::Std(lss::RX_ID) {
+            lss::on_frame(&mut self.core, frame, now);
+            return;
+        }
+        if !self.core.configured() || self.core.nmt == NmtState::Initialising {
+            return;
+        }
+        let id = self.core.node_id as u16;
+        match frame.id {
+            CanId::Std(0) => {
+                if let Some(req) = NmtRequest::parse(frame) {
+                    if req.addresses(self.core.node_id) {
+                        self.on_nmt(req.command, now);
+                    }
+                }
+            }
+            CanId::Std(x) if x == 0x600 + id => {
+                if !frame.rtr && self.core.nmt.sdo_allowed() {
+                    let Node { core, device, sdo } = self;
+                    let response = sdo.on_request(frame.payload(), now, &mut Dict { core, device });
+                    self.send_sdo(response);
+                }
+            }
+            CanId::Std(x) if x == 0x700 + id => {
+                if frame.rtr {
+                    guarding::on_rtr(&mut self.core, frame, now);
+                }
+            }
+            _ => {
+                if let PdoEvent::Rpdo(n) = pdo::on_frame(&mut self.core, frame, now) {
+                    self.device.on_rpdo(&mut self.core, n, now);
+                }
+            }
+        }
+    }
+
+    /// Runs the timers due at `now`.
+    pub fn poll(&mut self, now: Instant) {
+        lss::poll(&mut self.core, now);
+        if !self.core.configured() {
+            return;
+        }
+        if self.core.nmt == NmtState::Initialising {
+            self.boot_up(now);
+        }
+        let timeout = self.sdo.poll(now);
+        self.send_sdo(timeout);
+        heartbeat::poll(&mut self.core, now);
+        guarding::poll(&mut self.core, now);
+        emcy::poll(&mut self.core, now);
+        pdo::poll(&mut self.core, now);
+        self.device.poll(&mut self.core, now);
+    }
+
+    /// When [`Node::poll`] must next run; `None` when nothing is scheduled.
+    pub fn next_deadline(&self) -> Option<Instant> {
+        let core = &self.core;
+        let mut next = lss::next_deadline(core);
+        if core.configured() {
+            if core.nmt == NmtState::Initialising {
+                return Some(Instant::ZERO);
+            }
+            next = earliest(next, self.sdo.next_deadline());
+            next = earliest(next, heartbeat::next_deadline(core));
+            next = earliest(next, guarding::next_deadline(core));
+            next = earliest(next, pdo::next_deadline(core));
+        }
+        earliest(next, self.device.next_deadline())
+    }
+
+    /// The shell has finished (or failed) the [`Output::Store`] it was given.
+    pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        let _ = now;
+        let response = self.sdo.complete_deferred(result.map_err(|()| Abort::CANNOT_STORE));
+        self.send_sdo(response);
+    }
+
+    fn send_sdo(&mut self, response: Option<[u8; 8]>) {
+        if let Some(data) = response {
+            self.core.out.send(Frame::std(0x580 + self.core.node_id as u16, &data));
+        }
+    }
+
+    fn on_nmt(&mut self, command: NmtCommand, now: Instant) {
+        let state = &mut self.core.nmt;
+        match command {
+            NmtCommand::Start => *state = NmtState::Operational,
+            NmtCommand::Stop => {
+                *state = NmtState::Stopped;
+                self.sdo.reset();
+            }
+            NmtCommand::EnterPreOperational => *state = NmtState::PreOperational,
+            NmtCommand::ResetNode => self.reset(ResetKind::Node, now),
+            NmtCommand::ResetCommunication => self.reset(ResetKind::Communication, now),
+        }
+    }
+
+    fn reset(&mut self, kind: ResetKind, now: Instant) {
+        self.core.nmt = NmtState::Initialising;
+        self.sdo.reset();
+        emcy::reset(&mut self.core);
+        self.device.on_reset(&mut self.core, kind, now);
+    }
+
+    fn boot_up(&mut self, now: Instant) {
+        self.core.out.send(Frame::std(0x700 + self.core.node_id as u16, &[0x00]));
+        self.core.nmt = NmtState::PreOperational;
+        heartbeat::reset(&mut self.core, now);
+        guarding::reset(&mut self.core);
+        pdo::reset(&mut self.core, now);
+    }
+}
+
+/// The dictionary as the SDO server sees it: checks, hooks, then the value.
+struct Dict<'a, D: Device> {
+    core: &'a mut Core,
+    device: &'a mut D,
+}
+
+impl<D: Device> ObjectAccess for Dict<'_, D> {
+    fn read_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort> {
+        let pos = self.core.od.find(index, sub)?;
+        self.core.od.check_read(pos)?;
+        Ok(self.core.od.entry(pos).size())
+    }
+
+    fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort> {
+        let pos = self.core.od.find(index, sub)?;
+        self.core.od.check_read(pos)?;
+        Ok(self.core.od.encode(pos, buf))
+    }
+
+    fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
+        let pos = self.core.od.find(index, sub)?;
+        let value = self.core.od.check_write(pos, data)?;
+        let written = match self.core.od.entry(pos).hook {
+            Hook::None => Written::Done,
+            Hook::Core(hook) => core_write(self.core, hook, pos, value, now)?,
+            Hook::Device(_) => {
+                self.device.on_write(self.core, pos, value, now)?;
+                Written::Done
+            }
+        };
+        self.core.od.set(pos, value);
+        Ok(written)
+    }
+}
+
+/// Checks a write to an entry with a core hook and applies its side effect. On `Ok` the
+/// caller stores the value.
+fn core_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Instant) -> Result<Written, Abort> {
+    let _ = (core, pos, value, now);
+    match hook {
+        CoreHook::ErrorHistory
+        | CoreHook::SyncCobId
+        | CoreHook::EmcyCobId
+        | CoreHook::Guarding
+        | CoreHook::HeartbeatTime
+        | CoreHook::Store
+        | CoreHook::Restore
+        | CoreHook::PdoCobId
+        | CoreHook::PdoTransmissionType
+        | CoreHook::PdoEventTimer
+        | CoreHook::PdoMapping
+        | CoreHook::PendingNodeId
+        | CoreHook::PendingBitrate => Ok(Written::Done),
+    }
+}

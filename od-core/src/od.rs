@@ -1,0 +1,580 @@
+//! The object dictionary: a device's entries declared once as `static` data, their values in RAM.
+//!
+//! Each device declares a sorted `&'static [Entry]` (see `crate::devices`). The declaration
+//! carries everything the manual says of an entry: name, data type, access, PDO mapping,
+//! default, limits, storage group and the hook that gives a write its side effect. From that
+//! one table come the RAM values (`Od`), the SDO checks, the parameter image and the EDS file.
+//!
+//! Every value fits in 32 bits: the dictionaries of all five devices hold no type wider than
+//! UNSIGNED32/INTEGER32, and their strings (1008h, 1009h, 100Ah) are constants read from the
+//! declaration itself.
+
+use crate::abort::Abort;
+
+/// CiA 301 data types used by the devices, with their CiA 301 type codes as discriminants.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[repr(u16)]
+pub enum DataType {
+    /// BOOLEAN.
+    Boolean = 0x0001,
+    /// INTEGER8.
+    Integer8 = 0x0002,
+    /// INTEGER16.
+    Integer16 = 0x0003,
+    /// INTEGER32.
+    Integer32 = 0x0004,
+    /// UNSIGNED8.
+    Unsigned8 = 0x0005,
+    /// UNSIGNED16.
+    Unsigned16 = 0x0006,
+    /// UNSIGNED32.
+    Unsigned32 = 0x0007,
+    /// VISIBLE_STRING (constant in every device).
+    VisibleString = 0x0009,
+}
+
+impl DataType {
+    /// Size in bytes of a value of this type (strings: 0, their size is their content's).
+    pub const fn size(self) -> usize {
+        match self {
+            DataType::Boolean | DataType::Integer8 | DataType::Unsigned8 => 1,
+            DataType::Integer16 | DataType::Unsigned16 => 2,
+            DataType::Integer32 | DataType::Unsigned32 => 4,
+            DataType::VisibleString => 0,
+        }
+    }
+
+    /// Size in bits, as a PDO mapping entry gives it.
+    pub const fn bits(self) -> u8 {
+        (self.size() * 8) as u8
+    }
+
+    /// True for the INTEGERn types.
+    pub const fn is_signed(self) -> bool {
+        matches!(self, DataType::Integer8 | DataType::Integer16 | DataType::Integer32)
+    }
+
+    /// The raw 32-bit slot value read as a number of this type (sign-extended for INTEGERn).
+    pub const fn to_i64(self, raw: u32) -> i64 {
+        match self {
+            DataType::Integer8 => raw as u8 as i8 as i64,
+            DataType::Integer16 => raw as u16 as i16 as i64,
+            DataType::Integer32 => raw as i32 as i64,
+            DataType::Boolean | DataType::Unsigned8 => (raw & 0xFF) as i64,
+            DataType::Unsigned16 => (raw & 0xFFFF) as i64,
+            DataType::Unsigned32 | DataType::VisibleString => raw as i64,
+        }
+    }
+}
+
+/// Access rights as the manuals print them.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Access {
+    /// Read only; the device itself may change the value.
+    Ro,
+    /// Write only.
+    Wo,
+    /// Read and write.
+    Rw,
+    /// Constant.
+    Const,
+}
+
+impl Access {
+    /// May an SDO client read it?
+    pub const fn readable(self) -> bool {
+        !matches!(self, Access::Wo)
+    }
+    /// May an SDO client write it?
+    pub const fn writable(self) -> bool {
+        matches!(self, Access::Rw | Access::Wo)
+    }
+}
+
+/// Which 1010h/1011h parameter group stores an entry.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Group {
+    /// Not stored (live, constant, or command entries).
+    None,
+    /// Communication parameters, 1000h-1FFFh (1010h/1011h sub 2).
+    Comm,
+    /// Application (device profile) parameters, 6000h-9FFFh (sub 3).
+    App,
+    /// Manufacturer-specific parameters, 2000h-5FFFh (sub 4).
+    Manuf,
+    /// Factory data (serial number): kept in flash, never changed by a user store/restore.
+    Factory,
+}
+
+impl Group {
+    /// Bit of this group in a [`GroupMask`].
+    pub const fn bit(self) -> u8 {
+        match self {
+            Group::None => 0,
+            Group::Comm => 1,
+            Group::App => 2,
+            Group::Manuf => 4,
+            Group::Factory => 8,
+        }
+    }
+}
+
+/// A set of parameter groups, as selected by a 1010h/1011h subindex.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct GroupMask(pub u8);
+
+impl GroupMask {
+    /// Communication, application and manufacturer groups (1010h/1011h sub 1).
+    pub const ALL: GroupMask = GroupMask(1 | 2 | 4);
+    /// The groups a 1010h/1011h subindex selects (1 all, 2 comm, 3 app, 4 manufacturer).
+    pub const fn from_subindex(sub: u8) -> Option<GroupMask> {
+        match sub {
+            1 => Some(GroupMask::ALL),
+            2 => Some(GroupMask(Group::Comm.bit())),
+            3 => Some(GroupMask(Group::App.bit())),
+            4 => Some(GroupMask(Group::Manuf.bit())),
+            _ => None,
+        }
+    }
+    /// Does the set contain `g`?
+    pub const fn contains(self, g: Group) -> bool {
+        g.bit() != 0 && self.0 & g.bit() != 0
+    }
+}
+
+/// A default value as the manual gives it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Default {
+    /// A fixed value (the 32-bit pattern; negative INTEGERs as two's complement).
+    Value(u32),
+    /// A base plus the node-ID (COB-ID defaults such as 180h + node-ID).
+    PlusNodeId(u32),
+    /// A constant string.
+    Str(&'static str),
+}
+
+/// The part of a CiA 306 object an entry is.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Kind {
+    /// A plain variable (sub-index 0, ObjectType 7).
+    Var,
+    /// Sub-index 0 of a RECORD (ObjectType 9) or ARRAY (ObjectType 8) named `object`.
+    Head {
+        /// The object's name.
+        object: &'static str,
+        /// ARRAY (all members of one type) rather than RECORD.
+        array: bool,
+    },
+    /// A member (sub-index >= 1) of a RECORD or ARRAY.
+    Member,
+}
+
+/// What a write to an entry does beyond storing the value.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Hook {
+    /// Nothing: the value is checked against type, access and limits and stored.
+    None,
+    /// A communication-profile rule the core enforces.
+    Core(CoreHook),
+    /// A device-specific side effect; the number is the device's own.
+    Device(u8),
+}
+
+/// Write side effects owned by the core services.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum CoreHook {
+    /// 1003h sub 0: only 0 may be written, and it clears the history.
+    ErrorHistory,
+    /// 1005h COB-ID SYNC.
+    SyncCobId,
+    /// 1014h COB-ID EMCY.
+    EmcyCobId,
+    /// 100Ch guard time / 100Dh life time factor.
+    Guarding,
+    /// 1017h producer heartbeat time.
+    HeartbeatTime,
+    /// 1010h store parameters ("save").
+    Store,
+    /// 1011h restore default parameters ("load").
+    Restore,
+    /// 14xxh/18xxh sub 1: PDO COB-ID.
+    PdoCobId,
+    /// 14xxh/18xxh sub 2: transmission type.
+    PdoTransmissionType,
+    /// 18xxh sub 5: event timer.
+    PdoEventTimer,
+    /// 16xxh/1Axxh: PDO mapping.
+    PdoMapping,
+    /// Node-ID to use after the next reset (5F0Ah.01 and alike; shared with LSS).
+    PendingNodeId,
+    /// Bit-rate code to use after the next reset (5F0Ah.02 and alike; shared with LSS).
+    PendingBitrate,
+}
+
+/// One (index, sub-index) of a device's dictionary, as declared.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Entry {
+    /// Object index.
+    pub index: u16,
+    /// Sub-index.
+    pub sub: u8,
+    /// Variable, record/array head, or member.
+    pub kind: Kind,
+    /// Parameter name.
+    pub name: &'static str,
+    /// Data type.
+    pub dtype: DataType,
+    /// Access rights.
+    pub access: Access,
+    /// May be mapped into a PDO.
+    pub pdo: bool,
+    /// Factory default.
+    pub default: Default,
+    /// Inclusive value limits, in the type's numeric range.
+    pub limits: Option<(i64, i64)>,
+    /// Storage group.
+    pub group: Group,
+    /// Write side effect.
+    pub hook: Hook,
+}
+
+impl Entry {
+    const fn base(
+        index: u16,
+        sub: u8,
+        kind: Kind,
+        name: &'static str,
+        dtype: DataType,
+        access: Access,
+        default: Default,
+    ) -> Entry {
+        Entry {
+            index,
+            sub,
+            kind,
+            name,
+            dtype,
+            access,
+            pdo: false,
+            default,
+            limits: None,
+            group: Group::None,
+            hook: Hook::None,
+        }
+    }
+
+    /// A plain variable at sub-index 0.
+    pub const fn var(index: u16, name: &'static str, dtype: DataType, access: Access, default: u32) -> Entry {
+        Entry::base(index, 0, Kind::Var, name, dtype, access, Default::Value(default))
+    }
+
+    /// A constant VISIBLE_STRING variable.
+    pub const fn string(index: u16, name: &'static str, value: &'static str) -> Entry {
+        Entry::base(index, 0, Kind::Var, name, DataType::VisibleString, Access::Const, Default::Str(value))
+    }
+
+    /// Sub-index 0 of a RECORD: "highest sub-index supported", UNSIGNED8, `access`.
+    pub const fn record(index: u16, object: &'static str, highest: u8, access: Access) -> Entry {
+        Entry::base(
+            index,
+            0,
+            Kind::Head { object, array: false },
+            "Highest sub-index supported",
+            DataType::Unsigned8,
+            access,
+            Default::Value(highest as u32),
+        )
+    }
+
+    /// Sub-index 0 of an ARRAY.
+    pub const fn array(index: u16, object: &'static str, highest: u8, access: Access) -> Entry {
+        Entry::base(
+            index,
+            0,
+            Kind::Head { object, array: true },
+            "Highest sub-index supported",
+            DataType::Unsigned8,
+            access,
+            Default::Value(highest as u32),
+        )
+    }
+
+    /// A member of a RECORD or ARRAY.
+    pub const fn member(
+        index: u16,
+        sub: u8,
+        name: &'static str,
+        dtype: DataType,
+        access: Access,
+        default: u32,
+    ) -> Entry {
+        Entry::base(index, sub, Kind::Member, name, dtype, access, Default::Value(default))
+    }
+
+    /// Renames the entry (for a record head whose sub 0 the manual names).
+    pub const fn named(mut self, name: &'static str) -> Entry {
+        self.name = name;
+        self
+    }
+
+    /// Marks the entry PDO-mappable.
+    pub const fn pdo(mut self) -> Entry {
+        self.pdo = true;
+        self
+    }
+
+    /// Sets inclusive limits.
+    pub const fn range(mut self, lo: i64, hi: i64) -> Entry {
+        self.limits = Some((lo, hi));
+        self
+    }
+
+    /// Sets the storage group.
+    pub const fn group(mut self, group: Group) -> Entry {
+        self.group = group;
+        self
+    }
+
+    /// Sets the write hook.
+    pub const fn hook(mut self, hook: Hook) -> Entry {
+        self.hook = hook;
+        self
+    }
+
+    /// Default is `base` plus the node-ID.
+    pub const fn plus_node_id(mut self, base: u32) -> Entry {
+        self.default = Default::PlusNodeId(base);
+        self
+    }
+
+    /// The default value for a node with this node-ID (strings: 0).
+    pub const fn default_value(&self, node_id: u8) -> u32 {
+        match self.default {
+            Default::Value(v) => v,
+            Default::PlusNodeId(b) => b.wrapping_add(node_id as u32),
+            Default::Str(_) => 0,
+        }
+    }
+
+    /// Bytes the value takes on the bus.
+    pub const fn size(&self) -> usize {
+        match self.default {
+            Default::Str(s) => s.len(),
+            _ => self.dtype.size(),
+        }
+    }
+
+    /// The CiA 306 ObjectType of the object this entry heads or is (7 VAR, 8 ARRAY, 9 RECORD).
+    pub const fn object_type(&self) -> u8 {
+        match self.kind {
+            Kind::Var => 7,
+            Kind::Head { array: true, .. } => 8,
+            Kind::Head { array: false, .. } => 9,
+            Kind::Member => 7,
+        }
+    }
+}
+
+/// Most entries any device dictionary holds; checked when an [`Od`] is built.
+pub const MAX_ENTRIES: usize = 160;
+
+/// A device's dictionary: the static declarations and their current values.
+#[derive(Clone)]
+pub struct Od {
+    table: &'static [Entry],
+    values: [u32; MAX_ENTRIES],
+}
+
+impl Od {
+    /// Builds the dictionary with every value at its default for `node_id`.
+    ///
+    /// Panics (at start-up, never on the bus) if the table is unsorted or too large: a
+    /// declaration bug every device test catches.
+    pub fn new(table: &'static [Entry], node_id: u8) -> Od {
+        assert!(table.len() <= MAX_ENTRIES, "dictionary larger than MAX_ENTRIES");
+        assert!(
+            table.windows(2).all(|w| (w[0].index, w[0].sub) < (w[1].index, w[1].sub)),
+            "dictionary not sorted by (index, sub)"
+        );
+        let mut od = Od { table, values: [0; MAX_ENTRIES] };
+        od.load_defaults(|_| true, node_id);
+        od
+    }
+
+    /// The declarations.
+    pub fn table(&self) -> &'static [Entry] {
+        self.table
+    }
+
+    /// The declaration at position `pos`.
+    pub fn entry(&self, pos: usize) -> &'static Entry {
+        &self.table[pos]
+    }
+
+    /// Position of (index, sub), or the abort code an SDO client gets for it:
+    /// 06020000h when no entry has that index, 06090011h when the index exists but not the sub.
+    pub fn find(&self, index: u16, sub: u8) -> Result<usize, Abort> {
+        match self.table.binary_search_by(|e| (e.index, e.sub).cmp(&(index, sub))) {
+            Ok(pos) => Ok(pos),
+            Err(at) => {
+                let near = |p: usize| self.table.get(p).is_some_and(|e| e.index == index);
+                if near(at) || (at > 0 && near(at - 1)) {
+                    Err(Abort::NO_SUBINDEX)
+                } else {
+                    Err(Abort::NO_OBJECT)
+                }
+            }
+        }
+    }
+
+    /// Position of (index, sub), if declared.
+    pub fn pos(&self, index: u16, sub: u8) -> Option<usize> {
+        self.find(index, sub).ok()
+    }
+
+    /// Raw value at `pos`.
+    pub fn get(&self, pos: usize) -> u32 {
+        self.values[pos]
+    }
+
+    /// Sets the raw value at `pos`, with no checks (the device's own updates).
+    pub fn set(&mut self, pos: usize, value: u32) {
+        self.values[pos] = value;
+    }
+
+    /// Raw value of (index, sub), if declared.
+    pub fn value(&self, index: u16, sub: u8) -> Option<u32> {
+        self.pos(index, sub).map(|p| self.values[p])
+    }
+
+    /// Sets (index, sub) with no checks; false if it is not declared.
+    pub fn set_value(&mut self, index: u16, sub: u8, value: u32) -> bool {
+        match self.pos(index, sub) {
+            Some(p) => {
+                self.values[p] = value;
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Resets every entry `select` picks to its default for `node_id`.
+    pub fn load_defaults(&mut self, select: impl Fn(&Entry) -> bool, node_id: u8) {
+        for (pos, e) in self.table.iter().enumerate() {
+            if select(e) {
+                self.values[pos] = e.default_value(node_id);
+            }
+        }
+    }
+
+    /// Writes the value at `pos` as it goes on the bus (little-endian, or the string's bytes)
+    /// into `buf`; returns the number of bytes. `buf` must hold [`Entry::size`] bytes.
+    pub fn encode(&self, pos: usize, buf: &mut [u8]) -> usize {
+        let e = &self.table[pos];
+        match e.default {
+            Default::Str(s) => {
+                let n = s.len().min(buf.len());
+                buf[..n].copy_from_slice(&s.as_bytes()[..n]);
+                n
+            }
+            _ => {
+                let n = e.dtype.size().min(buf.len());
+                buf[..n].copy_from_slice(&self.values[pos].to_le_bytes()[..n]);
+                n
+            }
+        }
+    }
+
+    /// Checks that `pos` may be read by an SDO client.
+    pub fn check_read(&self, pos: usize) -> Result<(), Abort> {
+        if self.table[pos].access.readable() {
+            Ok(())
+        } else {
+            Err(Abort::WRITE_ONLY)
+        }
+    }
+
+    /// Decodes `data` written by an SDO client to `pos` and checks access, length and
+    /// limits; returns the raw value to store. Nothing is changed.
+    pub fn check_write(&self, pos: usize, data: &[u8]) -> Result<u32, Abort> {
+        let e = &self.table[pos];
+        if !e.access.writable() {
+            return Err(Abort::READ_ONLY);
+        }
+        let size = e.dtype.size();
+        if data.len() > size {
+            return Err(Abort::LENGTH_HIGH);
+        }
+        if data.len() < size {
+            return Err(Abort::LENGTH_LOW);
+        }
+        let mut raw = [0u8; 4];
+        raw[..size].copy_from_slice(data);
+        let value = u32::from_le_bytes(raw);
+        if let Some((lo, hi)) = e.limits {
+            let v = e.dtype.to_i64(value);
+            if v < lo {
+                return Err(Abort::VALUE_LOW);
+            }
+            if v > hi {
+                return Err(Abort::VALUE_HIGH);
+            }
+        }
+        if e.dtype == DataType::Boolean && value > 1 {
+            return Err(Abort::INVALID_VALUE);
+        }
+        Ok(value)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    static T: &[Entry] = &[
+        Entry::var(0x1000, "Device type", DataType::Unsigned32, Access::Const, 0x000A_0196),
+        Entry::string(0x1008, "Name", "SGH10"),
+        Entry::var(0x1017, "Heartbeat", DataType::Unsigned16, Access::Rw, 0),
+        Entry::record(0x1018, "Identity", 1, Access::Const),
+        Entry::member(0x1018, 1, "Vendor", DataType::Unsigned32, Access::Ro, 0x195),
+        Entry::member(0x1018, 3, "Revision", DataType::Unsigned32, Access::Ro, 7),
+        Entry::var(0x6401, "Limit", DataType::Integer32, Access::Rw, -5i32 as u32).range(-10, 10),
+        Entry::var(0x6402, "Cmd", DataType::Unsigned8, Access::Wo, 0),
+    ];
+
+    #[test]
+    fn find_distinguishes_missing_object_and_subindex() {
+        let od = Od::new(T, 1);
+        assert_eq!(od.find(0x1018, 1), Ok(4));
+        assert_eq!(od.find(0x1018, 2), Err(Abort::NO_SUBINDEX));
+        assert_eq!(od.find(0x1018, 9), Err(Abort::NO_SUBINDEX));
+        assert_eq!(od.find(0x1017, 1), Err(Abort::NO_SUBINDEX));
+        assert_eq!(od.find(0x1019, 0), Err(Abort::NO_OBJECT));
+        assert_eq!(od.find(0x0FFF, 0), Err(Abort::NO_OBJECT));
+        assert_eq!(od.find(0xFFFF, 0xFF), Err(Abort::NO_OBJECT));
+    }
+
+    #[test]
+    fn encode_strings_and_numbers() {
+        let od = Od::new(T, 1);
+        let mut b = [0u8; 8];
+        assert_eq!(od.encode(1, &mut b), 5);
+        assert_eq!(&b[..5], b"SGH10");
+        assert_eq!(od.encode(0, &mut b), 4);
+        assert_eq!(&b[..4], &[0x96, 0x01, 0x0A, 0x00]);
+    }
+
+    #[test]
+    fn write_checks_access_length_and_limits() {
+        let od = Od::new(T, 1);
+        assert_eq!(od.check_write(0, &[0; 4]), Err(Abort::READ_ONLY));
+        assert_eq!(od.check_write(2, &[1, 0, 0]), Err(Abort::LENGTH_HIGH));
+        assert_eq!(od.check_write(2, &[1]), Err(Abort::LENGTH_LOW));
+        assert_eq!(od.check_write(2, &[100, 0]), Ok(100));
+        assert_eq!(od.check_write(6, &(-11i32).to_le_bytes()), Err(Abort::VALUE_LOW));
+        assert_eq!(od.check_write(6, &11i32.to_le_bytes()), Err(Abort::VALUE_HIGH));
+        assert_eq!(od.check_write(6, &(-10i32).to_le_bytes()), Ok(-10i32 as u32));
+        assert_eq!(od.check_read(7), Err(Abort::WRITE_ONLY));
+        assert_eq!(od.get(6), -5i32 as u32);
+    }
+}

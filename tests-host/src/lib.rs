@@ -1,0 +1,17 @@
+//! Host-side harness for the SIKO devices: a virtual CAN bus with a virtual clock on which
+//! scenario tests replay the manuals' examples, and (in `sim`) the real-time simulator.
+
+pub mod bus;
+
+use od_core::node::Device;
+use od_core::od::Entry;
+
+/// A device with a dictionary and no behaviour of its own: what the communication-profile
+/// tests need before a device profile is involved.
+pub struct TableOnly(pub &'static [Entry]);
+
+impl Device for TableOnly {
+    fn table(&self) -> &'static [Entry] {
+        self.0
+    }
+}
