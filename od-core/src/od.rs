@@ -126,6 +126,9 @@ pub struct GroupMask(pub u8);
 impl GroupMask {
     /// Communication, application and manufacturer groups (1010h/1011h sub 1).
     pub const ALL: GroupMask = GroupMask(1 | 2 | 4);
+    /// Only the pending node-ID and bit rate (the entries hooked `PendingNodeId` and
+    /// `PendingBitrate`): what LSS "store configuration" persists.
+    pub const LSS: GroupMask = GroupMask(16);
     /// The groups a 1010h/1011h subindex selects (1 all, 2 comm, 3 app, 4 manufacturer).
     pub const fn from_subindex(sub: u8) -> Option<GroupMask> {
         match sub {
