@@ -11,7 +11,7 @@ use crate::emcy::{self, Emcy};
 use crate::frame::{CanId, Frame};
 use crate::guarding::{self, Guarding};
 use crate::heartbeat::{self, Heartbeat};
-use crate::lss::{self, Lss};
+use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
 use crate::od::{CoreHook, Entry, GroupMask, Hook, Od};
 use crate::pdo::{self, PdoEvent, Pdos};
@@ -110,6 +110,11 @@ pub trait Device {
     /// The device's dictionary, sorted by (index, sub).
     fn table(&self) -> &'static [Entry];
 
+    /// The coding of the pending bit-rate entry (hooked `PendingBitrate`) as (code, rate).
+    fn bitrate_codes(&self) -> &'static [(u32, Bitrate)] {
+        crate::bitrate::SIKO_CODES
+    }
+
     /// Checks and applies a write to an entry whose hook is `Hook::Device(_)`. Called after
     /// the type, access and limit checks; on `Ok` the core stores `value`.
     fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
@@ -136,6 +141,12 @@ pub trait Device {
     fn next_deadline(&self) -> Option<Instant> {
         None
     }
+
+    /// Does the device have an LSS slave (CiA 305)? The SGH10, SGH50 and WV5800M do; the
+    /// AP10T and the WV58MR have none and return false: their node then ignores 7E5h.
+    fn has_lss(&self) -> bool {
+        true
+    }
 }
 
 /// A CANopen node running device `D`.
@@ -147,9 +158,19 @@ pub struct Node<D: Device> {
 
 impl<D: Device> Node<D> {
     /// A node that has just been powered on: INITIALISATION, with `node_id` and `bitrate`
-    /// from its stored configuration. The boot-up frame goes out on the first [`Node::poll`].
+    /// from its stored configuration, which the pending node-ID and bit-rate entries hold.
+    /// `node_id` 255 is a node without a node-ID: it answers LSS only. The boot-up frame goes
+    /// out on the first [`Node::poll`].
     pub fn new(device: D, node_id: u8, bitrate: Bitrate) -> Node<D> {
-        let od = Od::new(device.table(), node_id);
+        let mut od = Od::new(device.table(), node_id);
+        if let Some(pos) = od.find_hook(CoreHook::PendingNodeId) {
+            od.set(pos, node_id as u32);
+        }
+        let code = device.bitrate_codes().iter().find(|(_, b)| *b == bitrate).map(|(c, _)| *c);
+        if let (Some(pos), Some(code)) = (od.find_hook(CoreHook::PendingBitrate), code) {
+            od.set(pos, code);
+        }
+        let lss = Lss::new(&od, device.has_lss(), device.bitrate_codes());
         let core = Core {
             od,
             nmt: NmtState::Initialising,
@@ -160,7 +181,7 @@ impl<D: Device> Node<D> {
             heartbeat: Heartbeat::default(),
             guarding: Guarding::default(),
             pdo: Pdos::default(),
-            lss: Lss::default(),
+            lss,
         };
         Node { core, device, sdo: SdoServer::new() }
     }
@@ -192,9 +213,15 @@ impl<D: Device> Node<D> {
 
     /// Handles one received frame.
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        // During an LSS bit-rate switch the node takes no part in bus traffic (CiA 305).
+        if self.core.lss.switching() {
+            return;
+        }
         // LSS works in every NMT state and without a node-ID (CiA 305).
-        if frame.id == CanId::Std(lss::RX_ID) {
-            lss::on_frame(&mut self.core, frame, now);
+        if frame.id == CanId::Std(lss::RX_ID) && self.core.lss.enabled() {
+            if lss::on_frame(&mut self.core, frame, now) == LssEvent::ResetCommunication {
+                self.reset(ResetKind::Communication, now);
+            }
             return;
         }
         if !self.core.configured() || self.core.nmt == NmtState::Initialising {
@@ -231,8 +258,10 @@ impl<D: Device> Node<D> {
 
     /// Runs the timers due at `now`.
     pub fn poll(&mut self, now: Instant) {
-        lss::poll(&mut self.core, now);
-        if !self.core.configured() {
+        if lss::poll(&mut self.core, now) == LssEvent::ResetCommunication {
+            self.reset(ResetKind::Communication, now);
+        }
+        if !self.core.configured() || self.core.lss.switching() {
             return;
         }
         if self.core.nmt == NmtState::Initialising {
@@ -251,6 +280,9 @@ impl<D: Device> Node<D> {
     pub fn next_deadline(&self) -> Option<Instant> {
         let core = &self.core;
         let mut next = lss::next_deadline(core);
+        if core.lss.switching() {
+            return next;
+        }
         if core.configured() {
             if core.nmt == NmtState::Initialising {
                 return Some(Instant::ZERO);
@@ -264,8 +296,12 @@ impl<D: Device> Node<D> {
     }
 
     /// The shell has finished (or failed) the [`Output::Store`] it was given.
+    /// The result goes to whoever asked: LSS store configuration, else the SDO server (1010h).
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
         let _ = now;
+        if lss::store_done(&mut self.core, result.is_ok()) {
+            return;
+        }
         let response = self.sdo.complete_deferred(result.map_err(|()| Abort::CANNOT_STORE));
         self.send_sdo(response);
     }
@@ -293,8 +329,27 @@ impl<D: Device> Node<D> {
     fn reset(&mut self, kind: ResetKind, now: Instant) {
         self.core.nmt = NmtState::Initialising;
         self.sdo.reset();
+        self.activate_pending();
+        lss::reset(&mut self.core);
         emcy::reset(&mut self.core);
         self.device.on_reset(&mut self.core, kind, now);
+    }
+
+    /// A reset activates the pending node-ID and bit rate (5F0Ah and alike, set by SDO or
+    /// LSS). Node-ID FFh is LSS "unconfigured": the node then answers LSS only.
+    fn activate_pending(&mut self) {
+        if let Some(pos) = self.core.od.find_hook(CoreHook::PendingNodeId) {
+            let id = self.core.od.get(pos);
+            if (1..=127).contains(&id) || id == lss::UNCONFIGURED as u32 {
+                self.core.node_id = id as u8;
+            }
+        }
+        if let Some(rate) = pending_bitrate(&self.device, &self.core.od) {
+            if rate != self.core.bitrate {
+                self.core.bitrate = rate;
+                self.core.out.push(Output::SetBitrate(rate));
+            }
+        }
     }
 
     fn boot_up(&mut self, now: Instant) {
@@ -304,6 +359,12 @@ impl<D: Device> Node<D> {
         guarding::reset(&mut self.core);
         pdo::reset(&mut self.core, now);
     }
+}
+
+/// The bit rate the pending bit-rate entry selects, if the device has one that codes a rate.
+fn pending_bitrate<D: Device>(device: &D, od: &Od) -> Option<Bitrate> {
+    let code = od.get(od.find_hook(CoreHook::PendingBitrate)?);
+    device.bitrate_codes().iter().find(|(c, _)| *c == code).map(|(_, b)| *b)
 }
 
 /// The dictionary as the SDO server sees it: checks, hooks, then the value.
@@ -356,8 +417,9 @@ fn core_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Inst
         | CoreHook::PdoCobId
         | CoreHook::PdoTransmissionType
         | CoreHook::PdoEventTimer
-        | CoreHook::PdoMapping
-        | CoreHook::PendingNodeId
-        | CoreHook::PendingBitrate => Ok(Written::Done),
+        | CoreHook::PdoMapping => Ok(Written::Done),
+        // 5F0Ah and alike hold the pending node-ID and bit-rate code: storing the value (its
+        // range is the entry's limits) is the whole write; the next reset activates it.
+        CoreHook::PendingNodeId | CoreHook::PendingBitrate => Ok(Written::Done),
     }
 }
