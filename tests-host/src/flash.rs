@@ -56,6 +56,7 @@ pub struct Cut {
 #[derive(Clone, Debug)]
 pub struct RamFlash {
     mem: Vec<u8>,
+    erases: Vec<u32>,
     ops: u64,
     cut: Option<Cut>,
     off: bool,
@@ -72,7 +73,8 @@ impl RamFlash {
     pub fn from_bytes(mut bytes: Vec<u8>) -> RamFlash {
         let len = bytes.len().div_ceil(PAGE).max(1) * PAGE;
         bytes.resize(len, 0xFF);
-        RamFlash { mem: bytes, ops: 0, cut: None, off: false, worn: false }
+        let pages = len / PAGE;
+        RamFlash { mem: bytes, erases: vec![0; pages], ops: 0, cut: None, off: false, worn: false }
     }
 
     /// The contents.
@@ -88,6 +90,11 @@ impl RamFlash {
     /// Erases and half-word writes performed so far (a cut one included).
     pub fn ops(&self) -> u64 {
         self.ops
+    }
+
+    /// How often page `n` has been erased (wear).
+    pub fn erase_count(&self, n: usize) -> u32 {
+        self.erases[n]
     }
 
     /// Cuts the power in the `k`-th erase or half-word write from now (0 = the next one),
@@ -176,7 +183,10 @@ impl NorFlash for RamFlash {
         }
         for page in (start..to as usize).step_by(PAGE) {
             match self.step()? {
-                None => self.mem[page..page + PAGE].fill(0xFF),
+                None => {
+                    self.mem[page..page + PAGE].fill(0xFF);
+                    self.erases[page / PAGE] += 1;
+                }
                 Some(torn) => {
                     let n = torn.map_or(0, |m| m as usize % PAGE);
                     self.mem[page + PAGE - n..page + PAGE].fill(0xFF);

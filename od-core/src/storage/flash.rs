@@ -47,6 +47,7 @@ pub enum SaveError<E> {
 }
 
 /// The parameter pages of one device.
+#[derive(Clone, Debug)]
 pub struct ParamFlash<F> {
     flash: F,
     region: Region,
@@ -96,16 +97,8 @@ impl<F: NorFlash> ParamFlash<F> {
         best
     }
 
-    fn erased(&mut self, n: u32) -> bool {
-        let base = self.page(n);
-        let mut buf = [0u8; 32];
-        (0..F::ERASE_SIZE).step_by(buf.len()).all(|at| {
-            let len = buf.len().min(F::ERASE_SIZE - at);
-            self.flash.read(base + at as u32, &mut buf[..len]).is_ok() && buf[..len].iter().all(|&b| b == 0xFF)
-        })
-    }
-
-    /// Reads what the pages hold: the newest valid image, or blank, or invalid.
+    /// Reads what the pages hold: the newest valid image; else blank if no page was ever
+    /// committed (erased, or a first save cut short); else invalid.
     pub fn load(&mut self) -> Loaded {
         if let Some((n, _)) = self.newest() {
             let mut image = Image::new();
@@ -114,7 +107,7 @@ impl<F: NorFlash> ParamFlash<F> {
             }
             return Loaded::Invalid;
         }
-        if (0..self.region.pages).all(|n| self.erased(n)) {
+        if (0..self.region.pages).all(|n| self.decode(n, None) == Err(image::DecodeError::Uncommitted)) {
             Loaded::Blank
         } else {
             Loaded::Invalid

@@ -240,7 +240,10 @@ impl Image {
             return Err(DecodeError::Unreadable);
         }
         if head[..COMMIT_SIZE] != COMMIT {
-            return Err(DecodeError::Uncommitted);
+            // Programming only clears bits: a marker still on its way from FFh to COMMIT is an
+            // erased page or a save cut short; any other pattern was not written by us.
+            let on_its_way = head[..COMMIT_SIZE].iter().zip(&COMMIT).all(|(&b, &c)| b & c == c);
+            return Err(if on_its_way { DecodeError::Uncommitted } else { DecodeError::Marker });
         }
         let h = &head[COMMIT_SIZE..];
         if h[0..4] != MAGIC {
@@ -287,8 +290,11 @@ impl Image {
 pub enum DecodeError {
     /// The slot could not be read (or is shorter than a header).
     Unreadable,
-    /// No commit marker: erased, or a save that did not finish.
+    /// No commit marker yet: erased, or a save that did not finish.
     Uncommitted,
+    /// Something else where the commit marker belongs (zeroed, garbage, or a page a failed
+    /// save invalidated).
+    Marker,
     /// Not a parameter image.
     Magic,
     /// An image layout this firmware does not know.
@@ -383,9 +389,12 @@ mod tests {
         }
         let mut bad = buf;
         bad[3] = 0;
-        assert_eq!(Image::decode(&bad, id), Err(DecodeError::Uncommitted));
+        assert_eq!(Image::decode(&bad, id), Err(DecodeError::Marker));
+        let mut unfinished = buf;
+        unfinished[4..8].fill(0xFF);
+        assert_eq!(Image::decode(&unfinished, id), Err(DecodeError::Uncommitted));
         assert_eq!(Image::decode(&[0xFF; 1024], id), Err(DecodeError::Uncommitted));
-        assert_eq!(Image::decode(&[0x00; 1024], id), Err(DecodeError::Uncommitted));
+        assert_eq!(Image::decode(&[0x00; 1024], id), Err(DecodeError::Marker));
         let mut v2 = buf;
         v2[12] = 2;
         assert_eq!(Image::decode(&v2, id), Err(DecodeError::Version));

@@ -41,12 +41,14 @@ pub const MAX_STORED: usize = 64;
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, PartialEq, Eq, Debug)]
 pub enum Loaded {
-    /// Erased: never saved. Factory defaults, nothing to report.
+    /// Never saved: erased, or only a first save that the power cut short. Factory defaults,
+    /// nothing to report.
     Blank,
     /// The newest valid image of this device.
     Image(Image),
-    /// Written, but no valid image of this device (corrupt, zeroed, foreign, unknown layout):
-    /// factory defaults, reported by EMCY [`EMCY_DATA_SET`].
+    /// No valid image of this device, but pages that were committed or not written by us
+    /// (corrupt, zeroed, foreign, unknown layout): factory defaults, reported by EMCY
+    /// [`EMCY_DATA_SET`].
     Invalid,
 }
 
