@@ -118,6 +118,14 @@ pub trait Device {
         crate::bitrate::SIKO_CODES
     }
 
+    /// Does a 1011h restore of `groups` set entry `e` back to its default? By default the
+    /// entries of those storage groups (1011h sub 2, 3, 4 = index ranges 1000h-1FFFh,
+    /// 6000h-9FFFh, 2000h-5FFFh). A device whose manual lists other entries overrides it (the
+    /// AP10T's "bus parameters", manual Table 4). Factory data is never restored.
+    fn restores(&self, e: &Entry, groups: GroupMask) -> bool {
+        groups.contains(e.group)
+    }
+
     /// Checks and applies a write to an entry whose hook is `Hook::Device(_)`. Called after
     /// the type, access and limit checks; on `Ok` the core stores `value`.
     fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
@@ -332,7 +340,8 @@ impl<D: Device> Node<D> {
     fn reset(&mut self, kind: ResetKind, now: Instant) {
         self.core.nmt = NmtState::Initialising;
         self.sdo.reset();
-        storage::reload(&mut self.core, kind);
+        let device = &self.device;
+        storage::reload(&mut self.core, kind, |e, groups| device.restores(e, groups));
         self.activate_pending();
         emcy::reset(&mut self.core);
         self.device.on_reset(&mut self.core, kind, now);

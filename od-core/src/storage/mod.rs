@@ -232,32 +232,33 @@ pub(crate) fn store_done(core: &mut Core, ok: bool, now: Instant) {
 
 /// Re-initialises the dictionary for an NMT reset: Reset Node loads the stored values of the
 /// communication, application and manufacturer groups, Reset Communication those of the
-/// communication group; groups marked by 1011h get their factory defaults instead. The pending
-/// node-ID and bit rate keep their RAM value (the reset activates it) unless restored; the
-/// 1003h history is kept unless restored.
-pub(crate) fn reload(core: &mut Core, kind: ResetKind) {
+/// communication group. Groups marked by 1011h (those of them this reset covers) get their
+/// factory defaults instead, on the entries `restores(entry, groups)` picks (the device's
+/// [`crate::node::Device::restores`]). The pending node-ID and bit rate keep their RAM value
+/// (the reset activates it) unless restored; the 1003h history is kept unless restored.
+pub(crate) fn reload(core: &mut Core, kind: ResetKind, restores: impl Fn(&Entry, GroupMask) -> bool) {
     let groups = match kind {
         ResetKind::Node => GroupMask::ALL,
         ResetKind::Communication => GroupMask(Group::Comm.bit()),
     };
     let restore = GroupMask(core.storage.restore.0 & groups.0);
+    let restored = |e: &Entry| restore.0 != 0 && is_user(e) && restores(e, restore);
     let Core { od, storage, node_id, .. } = core;
     // The pending entries first: the "+ node-ID" defaults use the node-ID the reset activates.
     for (pos, e) in od.table().iter().enumerate() {
-        if is_pending(e) && restore.contains(e.group) {
+        if is_pending(e) && restored(e) {
             od.set(pos, e.default_value(0));
         }
     }
     let id = pending(od, CoreHook::PendingNodeId).map(|v| v as u8).filter(|v| (1..=127).contains(v));
     let id = id.unwrap_or(*node_id);
     for (k, pos, e) in user_entries(od.table()) {
-        if !groups.contains(e.group) || is_pending(e) {
-            continue;
-        }
-        let value = if restore.contains(e.group) || (!is_log(e) && storage.at_default & (1 << k) != 0) {
+        let value = if restored(e) {
             e.default_value(id)
-        } else if is_log(e) {
+        } else if !groups.contains(e.group) || is_pending(e) || is_log(e) {
             continue;
+        } else if storage.at_default & (1 << k) != 0 {
+            e.default_value(id)
         } else {
             storage.stored[k]
         };

@@ -13,6 +13,10 @@ impl Device for Sgh10 {
     }
 }
 
+fn by_group(e: &Entry, mask: GroupMask) -> bool {
+    mask.contains(e.group)
+}
+
 fn rec(index: u16, sub: u8, value: u32) -> Record {
     let od = Od::new(sgh10::TABLE, 1);
     Record::of(od.entry(od.pos(index, sub).unwrap()), value)
@@ -166,11 +170,11 @@ fn reset_node_reloads_stored_values_reset_communication_only_comm() {
     set(&mut node, 0x1017, 0, 200);
     set(&mut node, 0x6002, 0, 6000);
     set(&mut node, 0x100C, 0, 10);
-    reload(node.split().1, ResetKind::Communication);
+    reload(node.split().1, ResetKind::Communication, by_group);
     assert_eq!(value(&node, 0x1017, 0), 100);
     assert_eq!(value(&node, 0x100C, 0), 0);
     assert_eq!(value(&node, 0x6002, 0), 6000, "application untouched by 82h");
-    reload(node.split().1, ResetKind::Node);
+    reload(node.split().1, ResetKind::Node, by_group);
     assert_eq!(value(&node, 0x6002, 0), 5000);
 }
 
@@ -180,7 +184,7 @@ fn reset_keeps_the_pending_node_id_and_the_error_history() {
     set(&mut node, 0x5F0A, 1, 5);
     set(&mut node, 0x1003, 0, 1);
     set(&mut node, 0x1003, 1, 0x8120);
-    reload(node.split().1, ResetKind::Node);
+    reload(node.split().1, ResetKind::Node, by_group);
     assert_eq!(value(&node, 0x5F0A, 1), 5);
     assert_eq!((value(&node, 0x1003, 0), value(&node, 0x1003, 1)), (1, 0x8120));
     assert_eq!(value(&node, 0x1014, 0), 0x85, "defaults follow the node-ID the reset activates");
@@ -194,20 +198,20 @@ fn restore_then_reset_loads_defaults_of_the_reset_groups_only() {
     set(&mut node, 0x1003, 1, 0x8120);
     let core = node.split().1;
     on_restore(core, pos(0x1011, 1), LOAD).unwrap();
-    reload(core, ResetKind::Communication);
+    reload(core, ResetKind::Communication, by_group);
     assert_eq!(core.od.value(0x1017, 0), Some(0));
     assert_eq!(core.od.value(0x1003, 1), Some(0), "restoring comm clears the history");
     assert_eq!(core.od.value(0x1003, 0), Some(core.od.entry(pos(0x1003, 0)).default_value(1)));
     assert_eq!(core.od.value(0x6002, 0), Some(5000), "82h does not apply application defaults");
     assert_eq!(core.storage.restore_pending(), GroupMask(Group::App.bit() | Group::Manuf.bit()));
-    reload(core, ResetKind::Node);
+    reload(core, ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x6002, 0), Some(10239));
     assert_eq!(core.od.value(0x5F0A, 1), Some(1), "node-ID back to its default");
     assert_eq!(core.od.value(0x1014, 0), Some(0x81));
     assert_eq!(core.storage.restore_pending(), GroupMask(0));
     // Nothing was saved: the next reset loads the stored values again.
     core.od.set_value(0x1017, 0, 7);
-    reload(core, ResetKind::Communication);
+    reload(core, ResetKind::Communication, by_group);
     assert_eq!(core.od.value(0x1017, 0), Some(100));
 }
 
@@ -222,7 +226,7 @@ fn a_successful_save_becomes_what_resets_load_and_cancels_a_restore() {
     store_done(core, true, Instant::ZERO);
     assert_eq!(core.storage.restore_pending(), GroupMask(Group::App.bit() | Group::Manuf.bit()));
     core.od.set_value(0x1017, 0, 7);
-    reload(core, ResetKind::Node);
+    reload(core, ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x1017, 0), Some(100), "saved");
     assert_eq!(core.od.value(0x6002, 0), Some(10239), "restored");
 }
@@ -234,7 +238,7 @@ fn a_failed_save_changes_nothing() {
     let core = node.split().1;
     on_store(core, pos(0x1010, 1), SAVE).unwrap();
     store_done(core, false, Instant::ZERO);
-    reload(core, ResetKind::Node);
+    reload(core, ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x1017, 0), Some(0));
 }
 
@@ -248,10 +252,24 @@ fn an_lss_store_saves_only_the_pending_entries() {
     assert_eq!(core.out.pop(), Some(Output::Store(GroupMask::LSS)));
     store_done(core, true, Instant::ZERO);
     // Only the LSS entries were saved: a reset loads the application group's stored default.
-    reload(core, ResetKind::Node);
+    reload(core, ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x6002, 0), Some(10239));
     assert_eq!(core.od.value(0x5F0A, 2), Some(3));
     on_restore(core, pos(0x1011, 4), LOAD).unwrap();
-    reload(core, ResetKind::Node);
+    reload(core, ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x5F0A, 2), Some(5), "restore: back to the default code");
+}
+
+#[test]
+fn a_device_may_widen_what_a_restore_covers() {
+    // The AP10T's "bus parameters" (manual Table 4) include the node-ID in 5F0Ah.
+    let bus_parameters =
+        |e: &Entry, mask: GroupMask| mask.contains(e.group) || (mask.contains(Group::Comm) && e.index == 0x5F0A);
+    let mut node = boot(&Loaded::Image(image(&[(0x5F0A, 1, 9), (0x6002, 0, 5000)])));
+    let core = node.split().1;
+    on_restore(core, pos(0x1011, 2), LOAD).unwrap();
+    reload(core, ResetKind::Communication, bus_parameters);
+    assert_eq!(core.od.value(0x5F0A, 1), Some(1));
+    assert_eq!(core.od.value(0x1014, 0), Some(0x81), "defaults for the node-ID the reset activates");
+    assert_eq!(core.od.value(0x6002, 0), Some(5000));
 }
