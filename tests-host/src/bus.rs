@@ -115,14 +115,15 @@ impl Bus {
         n
     }
 
-    /// Adds a node with a parameter flash: `boot` builds it from what `params` holds (now and at
-    /// every [`Bus::power_cycle`]), and its `Output::Store`s are saved there. It runs at the bit
+    /// Adds a node with a parameter flash and switches it on: `boot` builds it from what
+    /// `params` holds (now and at every [`Bus::power_cycle`]), and its `Output::Store`s are saved there. It runs at the bit
     /// rate it boots with. Returns its number.
     pub fn add_with_flash<S: Station + 'static>(
         &mut self,
         mut params: ParamFlash<RamFlash>,
         boot: impl Fn(&Loaded) -> S + 'static,
     ) -> usize {
+        params.flash().power_on();
         let station: Box<dyn Station> = Box::new(boot(&params.load()));
         let bitrate = station.core().bitrate;
         let flash = Flash { params, boot: Box::new(move |l| Box::new(boot(l))) };

@@ -1,6 +1,7 @@
 //! The parameter image on a flash that loses power: for every erase and every half-word write
 //! of a save, a cut there (clean or torn) leaves the complete old or the complete new image.
 
+use embedded_storage::nor_flash::NorFlash;
 use od_core::devices::sgh10;
 use od_core::od::GroupMask;
 use od_core::storage::{identity, Image, Loaded, ParamFlash, Region, SaveError};
@@ -164,6 +165,12 @@ fn blank_zeroed_corrupt_and_foreign_flash() {
     let mut other = ParamFlash::new(RamFlash::new(1 + PAGES as usize), REGION, identity(sgh10::TABLE) ^ 1);
     other.save(node(&values(1)).core(), GroupMask::ALL).unwrap();
     assert_eq!(params(other.flash().clone()).load(), Loaded::Invalid);
+
+    // A flash that cannot be read is no image either.
+    let mut dead = blank();
+    dead.flash().cut_after(0, None);
+    let _ = dead.flash().erase(0, PAGE as u32);
+    assert_eq!(dead.load(), Loaded::Invalid);
 
     // Garbage outside the region does not matter.
     let mut outside = blank();
