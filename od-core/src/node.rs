@@ -186,9 +186,10 @@ impl<D: Device> Node<D> {
 
     /// A node that has just been powered on: INITIALISATION, with the dictionary as the
     /// parameter flash held it (`storage::ParamFlash::load`). The active node-ID and bit rate
-    /// are the stored pending ones (their defaults if none are stored); an invalid flash is
-    /// reported by EMCY after the boot-up message. The boot-up frame goes out on the first
-    /// [`Node::poll`].
+    /// are the stored pending ones (their defaults if none are stored; 500 kbit/s if the code
+    /// names no rate, such as automatic detection, which the shell then handles); an invalid
+    /// flash is reported by EMCY after the boot-up message. The boot-up frame goes out on the
+    /// first [`Node::poll`].
     pub fn boot(device: D, loaded: &Loaded) -> Node<D> {
         Node::power_on(device, loaded, 0xFF)
     }

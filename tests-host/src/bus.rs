@@ -116,8 +116,8 @@ impl Bus {
     }
 
     /// Adds a node with a parameter flash and switches it on: `boot` builds it from what
-    /// `params` holds (now and at every [`Bus::power_cycle`]), and its `Output::Store`s are saved there. It runs at the bit
-    /// rate it boots with. Returns its number.
+    /// `params` holds (now and at every [`Bus::power_cycle`]), and its `Output::Store`s are
+    /// saved there. It runs at the bit rate it boots with. Returns its number.
     pub fn add_with_flash<S: Station + 'static>(
         &mut self,
         mut params: ParamFlash<RamFlash>,
