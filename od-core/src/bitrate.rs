@@ -105,6 +105,18 @@ impl Bitrate {
     }
 }
 
+/// The bit-rate coding of the pending bit-rate entry (5F0Ah.02) on the SGH10, SGH50, WV5800M
+/// and WV58MR, as (code, rate): 1 = 20 kbit/s ... 7 = 1000 kbit/s (100 kbit/s has no code).
+pub const SIKO_CODES: &[(u32, Bitrate)] = &[
+    (1, Bitrate::K20),
+    (2, Bitrate::K50),
+    (3, Bitrate::K125),
+    (4, Bitrate::K250),
+    (5, Bitrate::K500),
+    (6, Bitrate::K800),
+    (7, Bitrate::K1000),
+];
+
 #[cfg(test)]
 mod tests {
     use super::*;
