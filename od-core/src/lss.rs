@@ -23,6 +23,7 @@ use crate::bitrate::Bitrate;
 use crate::frame::{CanId, Frame};
 use crate::node::{Core, Output};
 use crate::od::{CoreHook, GroupMask, Od};
+use crate::storage;
 use crate::time::Instant;
 
 /// LSS master-to-slave identifier.
@@ -589,10 +590,14 @@ pub fn on_frame(core: &mut Core, frame: &Frame, now: Instant) -> LssEvent {
                 Some(Switch { adopt_at: now.add_micros(delay), boot_at: now.add_micros(2 * delay), adopted: false });
         }
         (LssState::Configuration, Request::StoreConfiguration) => {
-            // One store at a time: a repeated request gets the one answer when the shell is done.
+            // A repeated request gets the one answer when the shell is done. While a 1010h save
+            // is under way the store cannot start: "error occurred during storing".
             if !core.lss.storing {
-                core.lss.storing = true;
-                core.out.push(Output::Store(GroupMask::LSS));
+                if storage::request(core, GroupMask::LSS).is_ok() {
+                    core.lss.storing = true;
+                } else {
+                    send(core, Response::StoreConfiguration { error: error::STORE_FAILED, spec: 0 });
+                }
             }
         }
         (LssState::Configuration, Request::InquireIdentity(part)) => {

@@ -16,6 +16,7 @@ use crate::nmt::{NmtCommand, NmtRequest, NmtState};
 use crate::od::{CoreHook, Entry, GroupMask, Hook, Od};
 use crate::pdo::{self, PdoEvent, Pdos};
 use crate::sdo::{ObjectAccess, SdoServer, Written};
+use crate::storage::{self, Image, Loaded, Record, Storage};
 use crate::time::{earliest, Instant};
 
 /// Something the shell must do for the node.
@@ -96,6 +97,8 @@ pub struct Core {
     pub pdo: Pdos,
     /// LSS slave.
     pub lss: Lss,
+    /// Stored parameters: what an NMT reset loads, pending restores and saves.
+    pub storage: Storage,
 }
 
 impl Core {
@@ -113,6 +116,14 @@ pub trait Device {
     /// The coding of the pending bit-rate entry (hooked `PendingBitrate`) as (code, rate).
     fn bitrate_codes(&self) -> &'static [(u32, Bitrate)] {
         crate::bitrate::SIKO_CODES
+    }
+
+    /// Does a 1011h restore of `groups` set entry `e` back to its default? By default the
+    /// entries of those storage groups (1011h sub 2, 3, 4 = index ranges 1000h-1FFFh,
+    /// 6000h-9FFFh, 2000h-5FFFh). A device whose manual lists other entries overrides it (the
+    /// AP10T's "bus parameters", manual Table 4). Factory data is never restored.
+    fn restores(&self, e: &Entry, groups: GroupMask) -> bool {
+        groups.contains(e.group)
     }
 
     /// Checks and applies a write to an entry whose hook is `Hook::Device(_)`. Called after
@@ -157,19 +168,41 @@ pub struct Node<D: Device> {
 }
 
 impl<D: Device> Node<D> {
-    /// A node that has just been powered on: INITIALISATION, with `node_id` and `bitrate`
-    /// from its stored configuration, which the pending node-ID and bit-rate entries hold.
-    /// `node_id` 255 is a node without a node-ID: it answers LSS only. The boot-up frame goes
-    /// out on the first [`Node::poll`].
+    /// A node that has just been powered on with `node_id` and `bitrate` configured and stored
+    /// before (in the pending node-ID and bit-rate entries) and every other parameter at its
+    /// default: [`Node::boot`] from an image holding just those two.
     pub fn new(device: D, node_id: u8, bitrate: Bitrate) -> Node<D> {
-        let mut od = Od::new(device.table(), node_id);
-        if let Some(pos) = od.find_hook(CoreHook::PendingNodeId) {
-            od.set(pos, node_id as u32);
-        }
+        let mut image = Image::new();
         let code = device.bitrate_codes().iter().find(|(_, b)| *b == bitrate).map(|(c, _)| *c);
-        if let (Some(pos), Some(code)) = (od.find_hook(CoreHook::PendingBitrate), code) {
-            od.set(pos, code);
+        for e in device.table() {
+            let value = match e.hook {
+                Hook::Core(CoreHook::PendingNodeId) => Some(node_id as u32),
+                Hook::Core(CoreHook::PendingBitrate) => code,
+                _ => None,
+            };
+            if let Some(v) = value {
+                let _ = image.set(Record::of(e, v));
+            }
         }
+        let mut node = Node::power_on(device, &Loaded::Image(image), node_id);
+        node.core.node_id = node_id;
+        node.core.bitrate = bitrate;
+        node
+    }
+
+    /// A node that has just been powered on: INITIALISATION, with the dictionary as the
+    /// parameter flash held it (`storage::ParamFlash::load`). The active node-ID and bit rate
+    /// are the stored pending ones (their defaults if none are stored; 500 kbit/s if the code
+    /// names no rate, such as automatic detection, which the shell then handles); an invalid
+    /// flash is reported by EMCY after the boot-up message. The boot-up frame goes out on the
+    /// first [`Node::poll`].
+    pub fn boot(device: D, loaded: &Loaded) -> Node<D> {
+        Node::power_on(device, loaded, 0xFF)
+    }
+
+    fn power_on(device: D, loaded: &Loaded, fallback_node_id: u8) -> Node<D> {
+        let (od, storage, node_id) = storage::power_on(device.table(), loaded, fallback_node_id);
+        let bitrate = pending_bitrate(&device, &od).unwrap_or(Bitrate::K500);
         let lss = Lss::new(&od, device.has_lss(), device.bitrate_codes());
         let core = Core {
             od,
@@ -182,6 +215,7 @@ impl<D: Device> Node<D> {
             guarding: Guarding::default(),
             pdo: Pdos::default(),
             lss,
+            storage,
         };
         Node { core, device, sdo: SdoServer::new() }
     }
@@ -298,7 +332,7 @@ impl<D: Device> Node<D> {
     /// The shell has finished (or failed) the [`Output::Store`] it was given.
     /// The result goes to whoever asked: LSS store configuration, else the SDO server (1010h).
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
-        let _ = now;
+        storage::store_done(&mut self.core, result.is_ok(), now);
         if lss::store_done(&mut self.core, result.is_ok()) {
             return;
         }
@@ -329,6 +363,8 @@ impl<D: Device> Node<D> {
     fn reset(&mut self, kind: ResetKind, now: Instant) {
         self.core.nmt = NmtState::Initialising;
         self.sdo.reset();
+        let device = &self.device;
+        storage::reload(&mut self.core, kind, |e, groups| device.restores(e, groups));
         self.activate_pending();
         lss::reset(&mut self.core);
         emcy::reset(&mut self.core);
@@ -338,8 +374,7 @@ impl<D: Device> Node<D> {
     /// A reset activates the pending node-ID and bit rate (5F0Ah and alike, set by SDO or
     /// LSS). Node-ID FFh is LSS "unconfigured": the node then answers LSS only.
     fn activate_pending(&mut self) {
-        if let Some(pos) = self.core.od.find_hook(CoreHook::PendingNodeId) {
-            let id = self.core.od.get(pos);
+        if let Some(id) = storage::pending(&self.core.od, CoreHook::PendingNodeId) {
             if (1..=127).contains(&id) || id == lss::UNCONFIGURED as u32 {
                 self.core.node_id = id as u8;
             }
@@ -358,12 +393,13 @@ impl<D: Device> Node<D> {
         heartbeat::reset(&mut self.core, now);
         guarding::reset(&mut self.core);
         pdo::reset(&mut self.core, now);
+        storage::boot_up(&mut self.core, now);
     }
 }
 
 /// The bit rate the pending bit-rate entry selects, if the device has one that codes a rate.
 fn pending_bitrate<D: Device>(device: &D, od: &Od) -> Option<Bitrate> {
-    let code = od.get(od.find_hook(CoreHook::PendingBitrate)?);
+    let code = storage::pending(od, CoreHook::PendingBitrate)?;
     device.bitrate_codes().iter().find(|(c, _)| *c == code).map(|(_, b)| *b)
 }
 
@@ -389,7 +425,8 @@ impl<D: Device> ObjectAccess for Dict<'_, D> {
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
         let pos = self.core.od.find(index, sub)?;
         let value = self.core.od.check_write(pos, data)?;
-        let written = match self.core.od.entry(pos).hook {
+        let hook = self.core.od.entry(pos).hook;
+        let written = match hook {
             Hook::None => Written::Done,
             Hook::Core(hook) => core_write(self.core, hook, pos, value, now)?,
             Hook::Device(_) => {
@@ -397,23 +434,26 @@ impl<D: Device> ObjectAccess for Dict<'_, D> {
                 Written::Done
             }
         };
-        self.core.od.set(pos, value);
+        // 1010h/1011h signatures are commands: the entries keep reading their capabilities.
+        if !matches!(hook, Hook::Core(CoreHook::Store | CoreHook::Restore)) {
+            self.core.od.set(pos, value);
+        }
         Ok(written)
     }
 }
 
 /// Checks a write to an entry with a core hook and applies its side effect. On `Ok` the
-/// caller stores the value.
+/// caller stores the value (except the 1010h/1011h commands).
 fn core_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Instant) -> Result<Written, Abort> {
-    let _ = (core, pos, value, now);
+    let _ = now;
     match hook {
+        CoreHook::Store => storage::on_store(core, pos, value),
+        CoreHook::Restore => storage::on_restore(core, pos, value),
         CoreHook::ErrorHistory
         | CoreHook::SyncCobId
         | CoreHook::EmcyCobId
         | CoreHook::Guarding
         | CoreHook::HeartbeatTime
-        | CoreHook::Store
-        | CoreHook::Restore
         | CoreHook::PdoCobId
         | CoreHook::PdoTransmissionType
         | CoreHook::PdoEventTimer

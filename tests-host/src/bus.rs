@@ -5,8 +5,11 @@
 
 use std::collections::VecDeque;
 
-use od_core::node::{Device, Node, Output};
+use od_core::node::{Core, Device, Node, Output};
+use od_core::storage::{Loaded, ParamFlash};
 use od_core::{Bitrate, Frame, Instant};
+
+use crate::flash::RamFlash;
 
 /// Anything that can sit on the virtual bus: a node of any device.
 pub trait Station {
@@ -20,6 +23,8 @@ pub trait Station {
     fn next_output(&mut self) -> Option<Output>;
     /// Report the result of an `Output::Store`.
     fn store_done(&mut self, ok: bool, now: Instant);
+    /// The node's shared state (what a store persists).
+    fn core(&self) -> &Core;
 }
 
 impl<D: Device> Station for Node<D> {
@@ -37,6 +42,9 @@ impl<D: Device> Station for Node<D> {
     }
     fn store_done(&mut self, ok: bool, now: Instant) {
         Node::store_done(self, if ok { Ok(()) } else { Err(()) }, now)
+    }
+    fn core(&self) -> &Core {
+        Node::core(self)
     }
 }
 
@@ -64,6 +72,16 @@ struct Slot {
     station: Box<dyn Station>,
     bitrate: Bitrate,
     store_ok: bool,
+    flash: Option<Flash>,
+}
+
+/// How a node powers on from what its flash holds.
+type Boot = Box<dyn Fn(&Loaded) -> Box<dyn Station>>;
+
+/// A node's parameter flash and how the node powers on from it.
+struct Flash {
+    params: ParamFlash<RamFlash>,
+    boot: Boot,
 }
 
 /// The virtual bus.
@@ -91,10 +109,46 @@ impl Bus {
 
     /// Adds a station (running at the bus's bit rate) and lets it boot; returns its number.
     pub fn add(&mut self, station: impl Station + 'static) -> usize {
-        self.nodes.push(Slot { station: Box::new(station), bitrate: self.bitrate, store_ok: true });
+        self.nodes.push(Slot { station: Box::new(station), bitrate: self.bitrate, store_ok: true, flash: None });
         let n = self.nodes.len() - 1;
         self.run_due();
         n
+    }
+
+    /// Adds a node with a parameter flash and switches it on: `boot` builds it from what
+    /// `params` holds (now and at every [`Bus::power_cycle`]), and its `Output::Store`s are
+    /// saved there. It runs at the bit rate it boots with. Returns its number.
+    pub fn add_with_flash<S: Station + 'static>(
+        &mut self,
+        mut params: ParamFlash<RamFlash>,
+        boot: impl Fn(&Loaded) -> S + 'static,
+    ) -> usize {
+        params.flash().power_on();
+        let station: Box<dyn Station> = Box::new(boot(&params.load()));
+        let bitrate = station.core().bitrate;
+        let flash = Flash { params, boot: Box::new(move |l| Box::new(boot(l))) };
+        self.nodes.push(Slot { station, bitrate, store_ok: true, flash: Some(flash) });
+        let n = self.nodes.len() - 1;
+        self.run_due();
+        n
+    }
+
+    /// Switches node `n` off and on again: the power comes back to its flash (after a cut),
+    /// and the node boots from what the flash holds. Panics if the node has no flash.
+    pub fn power_cycle(&mut self, n: usize) {
+        let slot = &mut self.nodes[n];
+        let flash = slot.flash.as_mut().expect("power_cycle: node has no flash");
+        flash.params.flash().power_on();
+        let loaded = flash.params.load();
+        slot.station = (flash.boot)(&loaded);
+        slot.bitrate = slot.station.core().bitrate;
+        self.run_due();
+    }
+
+    /// Node `n`'s parameter flash (to cut its power, wear it out or corrupt it). Panics if the
+    /// node has none.
+    pub fn flash(&mut self, n: usize) -> &mut RamFlash {
+        self.nodes[n].flash.as_mut().expect("node has no flash").params.flash()
     }
 
     /// The current virtual time.
@@ -225,9 +279,14 @@ impl Bus {
                                 self.deliver(Sender::Node(i), f);
                             }
                         }
-                        Output::Store(_) => {
-                            let ok = self.nodes[i].store_ok;
-                            self.nodes[i].station.store_done(ok, now);
+                        Output::Store(mask) => {
+                            let slot = &mut self.nodes[i];
+                            let ok = slot.store_ok
+                                && match &mut slot.flash {
+                                    Some(f) => f.params.save(slot.station.core(), mask).is_ok(),
+                                    None => true,
+                                };
+                            slot.station.store_done(ok, now);
                         }
                         Output::SetBitrate(b) => self.nodes[i].bitrate = b,
                     }

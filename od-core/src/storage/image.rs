@@ -1,0 +1,453 @@
+//! The parameter image: the stored values as records keyed by (index, sub-index), and its
+//! byte layout in one flash slot.
+//!
+//! ```text
+//! offset  size  field
+//!      0     8  commit marker (COMMIT), written last: the slot counts only once it is there
+//!      8     4  magic "SKPI"
+//!     12     2  format version (VERSION)
+//!     14     2  number of records n
+//!     16     4  device identity (`identity`: an image of another device is refused)
+//!     20     4  sequence number (the newest valid slot wins)
+//!     24     4  reserved, FFFFFFFFh
+//!     28     4  CRC-32 over bytes 8..28 and the n records
+//!     32    8n  records: index (2), sub-index (1), size in bytes (1), value (4)
+//! ```
+//!
+//! All numbers little-endian. A record names its entry instead of a position in the table, so a
+//! firmware that adds or removes entries still loads every record that matches one of its
+//! entries (same size, value within the entry's limits) and ignores the rest.
+
+use crate::od::{CoreHook, DataType, Default, Entry, Hook};
+
+use super::crc::Crc32;
+
+/// Most records an image holds. The largest dictionary (AP10T) stores under 50 entries; the
+/// rest is room for firmware updates. 32 + 96 x 8 = 800 bytes: one 1 KiB STM32F1 page.
+pub const MAX_RECORDS: usize = 96;
+/// Bytes of one record.
+pub const RECORD_SIZE: usize = 8;
+/// Bytes before the first record (commit marker and header).
+pub const HEADER_SIZE: usize = 32;
+/// Bytes of the commit marker at the start of a slot.
+pub const COMMIT_SIZE: usize = 8;
+/// The commit marker. Neither erased (FFh) nor zeroed (00h) flash, nor a torn write of it, can
+/// read as this pattern.
+pub const COMMIT: [u8; COMMIT_SIZE] = *b"\xA5\x5A\xC3\x3CPARM";
+/// "SKPI": SIKO parameter image.
+pub const MAGIC: [u8; 4] = *b"SKPI";
+/// Layout version; an image of another version is not loaded.
+pub const VERSION: u16 = 1;
+
+/// Bytes a slot needs for an image of `records` records.
+pub const fn slot_size(records: usize) -> usize {
+    HEADER_SIZE + records * RECORD_SIZE
+}
+
+/// One stored value.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Record {
+    /// Object index.
+    pub index: u16,
+    /// Sub-index.
+    pub sub: u8,
+    /// Size of the entry's data type in bytes when it was stored.
+    pub size: u8,
+    /// The raw 32-bit slot value.
+    pub value: u32,
+}
+
+impl Record {
+    /// The record of `value` for entry `e`.
+    pub const fn of(e: &Entry, value: u32) -> Record {
+        Record { index: e.index, sub: e.sub, size: e.dtype.size() as u8, value }
+    }
+
+    /// Its bytes in a slot.
+    pub fn encode(&self) -> [u8; RECORD_SIZE] {
+        let mut b = [0u8; RECORD_SIZE];
+        b[..2].copy_from_slice(&self.index.to_le_bytes());
+        b[2] = self.sub;
+        b[3] = self.size;
+        b[4..].copy_from_slice(&self.value.to_le_bytes());
+        b
+    }
+
+    /// The record these bytes hold.
+    pub fn decode(b: &[u8; RECORD_SIZE]) -> Record {
+        Record {
+            index: u16::from_le_bytes([b[0], b[1]]),
+            sub: b[2],
+            size: b[3],
+            value: u32::from_le_bytes([b[4], b[5], b[6], b[7]]),
+        }
+    }
+
+    /// May this record set entry `e` (same key, a stored entry, same size, a value the entry
+    /// accepts)? A record the current firmware cannot take is skipped, never half-applied.
+    pub fn fits(&self, e: &Entry) -> bool {
+        if (self.index, self.sub) != (e.index, e.sub)
+            || !super::is_stored(e)
+            || matches!(e.default, Default::Str(_))
+            || self.size as usize != e.dtype.size()
+        {
+            return false;
+        }
+        if e.dtype == DataType::Boolean && self.value > 1 {
+            return false;
+        }
+        // LSS may store the pending node-ID FFh, "unconfigured" (CiA 305), outside the entry's
+        // SDO limits: such a node powers on answering LSS only.
+        if e.hook == Hook::Core(CoreHook::PendingNodeId) && self.value == crate::lss::UNCONFIGURED as u32 {
+            return true;
+        }
+        match e.limits {
+            Some((lo, hi)) => (lo..=hi).contains(&e.dtype.to_i64(self.value)),
+            None => true,
+        }
+    }
+
+    fn key(&self) -> (u16, u8) {
+        (self.index, self.sub)
+    }
+}
+
+/// The image is full ([`MAX_RECORDS`]).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Full;
+
+/// A parameter image: records sorted by (index, sub-index), at most one per key.
+#[derive(Clone, Default, PartialEq, Eq, Debug)]
+pub struct Image {
+    records: heapless::Vec<Record, MAX_RECORDS>,
+}
+
+impl Image {
+    /// An empty image (every stored entry at its default).
+    pub const fn new() -> Image {
+        Image { records: heapless::Vec::new() }
+    }
+
+    /// The records, sorted.
+    pub fn records(&self) -> &[Record] {
+        &self.records
+    }
+
+    /// Number of records.
+    pub fn len(&self) -> usize {
+        self.records.len()
+    }
+
+    /// No records?
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+
+    /// The record for (index, sub), if any.
+    pub fn get(&self, index: u16, sub: u8) -> Option<&Record> {
+        self.records.binary_search_by(|r| r.key().cmp(&(index, sub))).ok().map(|i| &self.records[i])
+    }
+
+    /// The value this image gives entry `e`, if it holds a record that fits it.
+    pub fn value_for(&self, e: &Entry) -> Option<u32> {
+        self.get(e.index, e.sub).filter(|r| r.fits(e)).map(|r| r.value)
+    }
+
+    /// Adds or replaces the record with `rec`'s key.
+    pub fn set(&mut self, rec: Record) -> Result<(), Full> {
+        match self.records.binary_search_by(|r| r.key().cmp(&rec.key())) {
+            Ok(i) => {
+                self.records[i] = rec;
+                Ok(())
+            }
+            Err(i) => self.records.insert(i, rec).map_err(|_| Full),
+        }
+    }
+
+    /// Removes the record for (index, sub), if any.
+    pub fn remove(&mut self, index: u16, sub: u8) {
+        if let Ok(i) = self.records.binary_search_by(|r| r.key().cmp(&(index, sub))) {
+            self.records.remove(i);
+        }
+    }
+
+    /// Keeps only the records `keep` approves.
+    pub fn retain(&mut self, keep: impl FnMut(&Record) -> bool) {
+        self.records.retain(keep);
+    }
+
+    /// Appends a record read from a slot; false unless keys strictly increase and there is room.
+    fn push_sorted(&mut self, rec: Record) -> bool {
+        let ordered = self.records.last().is_none_or(|l| l.key() < rec.key());
+        ordered && self.records.push(rec).is_ok()
+    }
+
+    /// Bytes 8..32 of the slot that holds this image: magic, version, count, identity,
+    /// sequence, reserved, CRC.
+    pub fn header(&self, identity: u32, sequence: u32) -> [u8; HEADER_SIZE - COMMIT_SIZE] {
+        let mut h = [0xFFu8; HEADER_SIZE - COMMIT_SIZE];
+        h[0..4].copy_from_slice(&MAGIC);
+        h[4..6].copy_from_slice(&VERSION.to_le_bytes());
+        h[6..8].copy_from_slice(&(self.records.len() as u16).to_le_bytes());
+        h[8..12].copy_from_slice(&identity.to_le_bytes());
+        h[12..16].copy_from_slice(&sequence.to_le_bytes());
+        let mut crc = Crc32::new();
+        crc.update(&h[..20]);
+        for r in &self.records {
+            crc.update(&r.encode());
+        }
+        h[20..24].copy_from_slice(&crc.finish().to_le_bytes());
+        h
+    }
+
+    /// Writes the whole committed slot into `buf`; returns its length, or `None` if `buf` is
+    /// too short. (The flash layer writes the same bytes piecewise, commit marker last.)
+    pub fn encode(&self, identity: u32, sequence: u32, buf: &mut [u8]) -> Option<usize> {
+        let len = slot_size(self.records.len());
+        let out = buf.get_mut(..len)?;
+        out[..COMMIT_SIZE].copy_from_slice(&COMMIT);
+        out[COMMIT_SIZE..HEADER_SIZE].copy_from_slice(&self.header(identity, sequence));
+        for (chunk, r) in out[HEADER_SIZE..].chunks_exact_mut(RECORD_SIZE).zip(&self.records) {
+            chunk.copy_from_slice(&r.encode());
+        }
+        Some(len)
+    }
+
+    /// Reads a slot from `bytes` (see [`Image::decode_with`]).
+    pub fn decode(bytes: &[u8], identity: u32) -> Result<(Image, u32), DecodeError> {
+        let mut image = Image::new();
+        let sequence = Image::decode_with(
+            |at, out| match bytes.get(at..at + out.len()) {
+                Some(src) => {
+                    out.copy_from_slice(src);
+                    true
+                }
+                None => false,
+            },
+            bytes.len(),
+            identity,
+            Some(&mut image),
+        )?;
+        Ok((image, sequence))
+    }
+
+    /// Checks the slot that `read(offset, buf)` reads (`capacity` bytes long) and returns its
+    /// sequence number; fills `out` with its records if given. `read` returns false when the
+    /// bytes cannot be read.
+    pub fn decode_with(
+        mut read: impl FnMut(usize, &mut [u8]) -> bool,
+        capacity: usize,
+        identity: u32,
+        mut out: Option<&mut Image>,
+    ) -> Result<u32, DecodeError> {
+        let mut head = [0u8; HEADER_SIZE];
+        if capacity < HEADER_SIZE || !read(0, &mut head) {
+            return Err(DecodeError::Unreadable);
+        }
+        if head[..COMMIT_SIZE] != COMMIT {
+            // Programming only clears bits: a marker still on its way from FFh to COMMIT is an
+            // erased page or a save cut short; any other pattern was not written by us.
+            let on_its_way = head[..COMMIT_SIZE].iter().zip(&COMMIT).all(|(&b, &c)| b & c == c);
+            return Err(if on_its_way { DecodeError::Uncommitted } else { DecodeError::Marker });
+        }
+        let h = &head[COMMIT_SIZE..];
+        if h[0..4] != MAGIC {
+            return Err(DecodeError::Magic);
+        }
+        let word = |at: usize| u32::from_le_bytes([h[at], h[at + 1], h[at + 2], h[at + 3]]);
+        if u16::from_le_bytes([h[4], h[5]]) != VERSION {
+            return Err(DecodeError::Version);
+        }
+        let count = u16::from_le_bytes([h[6], h[7]]) as usize;
+        if count > MAX_RECORDS || slot_size(count) > capacity {
+            return Err(DecodeError::Length);
+        }
+        let mut crc = Crc32::new();
+        crc.update(&h[..20]);
+        if let Some(image) = out.as_deref_mut() {
+            *image = Image::new();
+        }
+        for i in 0..count {
+            let mut b = [0u8; RECORD_SIZE];
+            if !read(HEADER_SIZE + i * RECORD_SIZE, &mut b) {
+                return Err(DecodeError::Unreadable);
+            }
+            crc.update(&b);
+            if let Some(image) = out.as_deref_mut() {
+                if !image.push_sorted(Record::decode(&b)) {
+                    return Err(DecodeError::Order);
+                }
+            }
+        }
+        if crc.finish() != word(20) {
+            return Err(DecodeError::Crc);
+        }
+        // Checked after the CRC: a foreign image is intact, just not ours.
+        if word(8) != identity {
+            return Err(DecodeError::Foreign);
+        }
+        Ok(word(12))
+    }
+}
+
+/// Why a slot holds no usable image.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum DecodeError {
+    /// The slot could not be read (or is shorter than a header).
+    Unreadable,
+    /// No commit marker yet: erased, or a save that did not finish.
+    Uncommitted,
+    /// Something else where the commit marker belongs (zeroed, garbage, or a page a failed
+    /// save invalidated).
+    Marker,
+    /// Not a parameter image.
+    Magic,
+    /// An image layout this firmware does not know.
+    Version,
+    /// More records than fit.
+    Length,
+    /// Records out of order (only an image not written by us can have that).
+    Order,
+    /// Checksum mismatch: corrupt or torn.
+    Crc,
+    /// An intact image of another device.
+    Foreign,
+}
+
+/// The device identity an image is bound to: CRC-32 of the device type (1000h), vendor-ID and
+/// product code (1018h.01/.02) and device name (1008h) as declared. The dictionary's layout is
+/// deliberately not part of it, so that images survive firmware updates.
+pub fn identity(table: &[Entry]) -> u32 {
+    let mut crc = Crc32::new();
+    for (index, sub) in [(0x1000, 0), (0x1018, 1), (0x1018, 2), (0x1008, 0)] {
+        if let Some(e) = table.iter().find(|e| (e.index, e.sub) == (index, sub)) {
+            crc.update(&index.to_le_bytes());
+            crc.update(&[sub]);
+            match e.default {
+                Default::Str(s) => crc.update(s.as_bytes()),
+                _ => crc.update(&e.default_value(0).to_le_bytes()),
+            }
+        }
+    }
+    crc.finish()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::devices::sgh10;
+
+    fn sample() -> Image {
+        let mut i = Image::new();
+        i.set(Record { index: 0x6000, sub: 0, size: 2, value: 0x000C }).unwrap();
+        i.set(Record { index: 0x1017, sub: 0, size: 2, value: 100 }).unwrap();
+        i.set(Record { index: 0x5F0A, sub: 1, size: 1, value: 5 }).unwrap();
+        i
+    }
+
+    #[test]
+    fn records_stay_sorted_and_unique() {
+        let mut i = sample();
+        i.set(Record { index: 0x1017, sub: 0, size: 2, value: 200 }).unwrap();
+        let keys: heapless::Vec<(u16, u8), 8> = i.records().iter().map(|r| (r.index, r.sub)).collect();
+        assert_eq!(&keys[..], &[(0x1017, 0), (0x5F0A, 1), (0x6000, 0)]);
+        assert_eq!(i.get(0x1017, 0).unwrap().value, 200);
+        i.remove(0x5F0A, 1);
+        assert_eq!(i.len(), 2);
+        i.remove(0x5F0A, 1);
+        assert_eq!(i.len(), 2);
+    }
+
+    #[test]
+    fn encode_decode_round_trip() {
+        let id = identity(sgh10::TABLE);
+        let mut buf = [0xFFu8; 1024];
+        let n = sample().encode(id, 7, &mut buf).unwrap();
+        assert_eq!(n, 32 + 3 * 8);
+        assert_eq!(&buf[..8], &COMMIT);
+        assert_eq!(&buf[8..12], b"SKPI");
+        // First record: 1017h.00, 2 bytes, 100.
+        assert_eq!(&buf[32..40], &[0x17, 0x10, 0x00, 0x02, 100, 0, 0, 0]);
+        assert_eq!(Image::decode(&buf, id), Ok((sample(), 7)));
+        assert_eq!(Image::decode(&buf[..n], id), Ok((sample(), 7)));
+    }
+
+    #[test]
+    fn empty_image_is_valid() {
+        let mut buf = [0u8; HEADER_SIZE];
+        assert_eq!(Image::new().encode(1, 1, &mut buf), Some(HEADER_SIZE));
+        assert_eq!(Image::decode(&buf, 1), Ok((Image::new(), 1)));
+    }
+
+    #[test]
+    fn refuses_foreign_truncated_corrupt_and_blank() {
+        let id = identity(sgh10::TABLE);
+        let mut buf = [0xFFu8; 1024];
+        let n = sample().encode(id, 1, &mut buf).unwrap();
+        assert_eq!(Image::decode(&buf, id ^ 1), Err(DecodeError::Foreign));
+        assert_eq!(Image::decode(&buf[..n - 1], id), Err(DecodeError::Length));
+        assert_eq!(Image::decode(&buf[..20], id), Err(DecodeError::Unreadable));
+        for i in 8..n {
+            let mut bad = buf;
+            bad[i] ^= 0x10;
+            assert!(Image::decode(&bad, id).is_err(), "byte {i} flipped");
+        }
+        let mut bad = buf;
+        bad[3] = 0;
+        assert_eq!(Image::decode(&bad, id), Err(DecodeError::Marker));
+        let mut unfinished = buf;
+        unfinished[4..8].fill(0xFF);
+        assert_eq!(Image::decode(&unfinished, id), Err(DecodeError::Uncommitted));
+        assert_eq!(Image::decode(&[0xFF; 1024], id), Err(DecodeError::Uncommitted));
+        assert_eq!(Image::decode(&[0x00; 1024], id), Err(DecodeError::Marker));
+        let mut v2 = buf;
+        v2[12] = 2;
+        assert_eq!(Image::decode(&v2, id), Err(DecodeError::Version));
+        let mut long = buf;
+        long[14..16].copy_from_slice(&(MAX_RECORDS as u16 + 1).to_le_bytes());
+        assert_eq!(Image::decode(&long, id), Err(DecodeError::Length));
+    }
+
+    #[test]
+    fn unsorted_records_are_refused_even_with_a_good_crc() {
+        let id = 9;
+        let mut buf = [0xFFu8; 128];
+        let n = sample().encode(id, 1, &mut buf).unwrap();
+        // Swap the first two records and fix the CRC: still refused.
+        let (a, b) = buf[32..48].split_at_mut(8);
+        a.swap_with_slice(b);
+        let mut crc = Crc32::new();
+        crc.update(&buf[8..28]);
+        crc.update(&buf[32..n]);
+        buf[28..32].copy_from_slice(&crc.finish().to_le_bytes());
+        assert_eq!(Image::decode(&buf, id), Err(DecodeError::Order));
+    }
+
+    #[test]
+    fn identity_tells_devices_apart() {
+        use crate::od::{Access, DataType, Entry};
+        static OTHER: &[Entry] = &[
+            Entry::var(0x1000, "Device type", DataType::Unsigned32, Access::Const, 0x000A_0196),
+            Entry::string(0x1008, "Name", "SGH50"),
+        ];
+        assert_ne!(identity(sgh10::TABLE), identity(OTHER));
+        assert_eq!(identity(sgh10::TABLE), identity(sgh10::TABLE));
+    }
+
+    #[test]
+    fn records_fit_only_matching_entries() {
+        let od = crate::od::Od::new(sgh10::TABLE, 1);
+        let e = |i, s| od.entry(od.pos(i, s).unwrap());
+        let nid = e(0x5F0A, 1);
+        assert!(Record::of(nid, 5).fits(nid));
+        assert!(!Record::of(nid, 0).fits(nid), "below the limits");
+        assert!(!Record::of(nid, 128).fits(nid), "above the limits");
+        assert!(!Record { size: 2, ..Record::of(nid, 5) }.fits(nid), "type changed");
+        assert!(!Record::of(nid, 5).fits(e(0x5F0A, 2)), "other key");
+        let vendor = e(0x1018, 1);
+        assert!(!Record::of(vendor, 0x195).fits(vendor), "not a stored entry");
+        let low = e(0x6401, 1);
+        assert!(Record::of(low, -20478i32 as u32).fits(low));
+        assert!(!Record::of(low, -20479i32 as u32).fits(low));
+    }
+}

@@ -1,0 +1,219 @@
+//! The parameter image on a flash that loses power: for every erase and every half-word write
+//! of a save, a cut there (clean or torn) leaves the complete old or the complete new image.
+
+use embedded_storage::nor_flash::NorFlash;
+use od_core::devices::sgh10;
+use od_core::od::GroupMask;
+use od_core::storage::{identity, Image, Loaded, ParamFlash, Region, SaveError};
+use od_core::{Bitrate, Node};
+use proptest::prelude::*;
+use tests_host::flash::{FlashError, RamFlash, PAGE};
+use tests_host::TableOnly;
+
+const PAGES: u32 = 3;
+/// The ring sits behind one unrelated page, as in the firmware's flash.
+const REGION: Region = Region { offset: PAGE as u32, pages: PAGES };
+
+fn params(flash: RamFlash) -> ParamFlash<RamFlash> {
+    ParamFlash::new(flash, REGION, identity(sgh10::TABLE))
+}
+
+fn blank() -> ParamFlash<RamFlash> {
+    params(RamFlash::new(1 + PAGES as usize))
+}
+
+type Values = Vec<(u16, u8, u32)>;
+
+/// A node with these values set in RAM.
+fn node(values: &[(u16, u8, u32)]) -> Node<TableOnly> {
+    let mut node = Node::new(TableOnly(sgh10::TABLE), 1, Bitrate::K500);
+    for &(i, s, v) in values {
+        assert!(node.split().1.od.set_value(i, s, v), "{i:04X}.{s}");
+    }
+    node
+}
+
+/// Saves `values` (all groups) and returns the image the flash then holds.
+fn save(p: &mut ParamFlash<RamFlash>, values: &[(u16, u8, u32)]) -> Image {
+    p.save(node(values).core(), GroupMask::ALL).unwrap();
+    match p.load() {
+        Loaded::Image(i) => i,
+        other => panic!("after a save: {other:?}"),
+    }
+}
+
+/// A distinct, valid set of values for each `n`.
+fn values(n: u32) -> Values {
+    vec![(0x1017, 0, 100 + n), (0x6002, 0, 5000 + n), (0x5F0A, 1, 1 + n % 127), (0x6401, 1, n % 30000)]
+}
+
+const TORN: [Option<u16>; 6] = [None, Some(0xFFFF), Some(0x00FF), Some(0xFF00), Some(0x5A5A), Some(0x0001)];
+
+/// Cuts the power at operation `k` of a save of `new` over what `p` holds, and checks what the
+/// next power-on finds: `old`, or the new image (only if the cut hit the very last write and
+/// tore it into its final value). Then the same save must succeed.
+fn cut_and_check(p: &ParamFlash<RamFlash>, old: &Loaded, new: &[(u16, u8, u32)], k: u64, torn: Option<u16>) {
+    let mut probe = p.clone();
+    let new_image = save(&mut probe, new);
+    let ops = probe.flash().ops() - p.clone().flash().ops();
+
+    let mut q = p.clone();
+    q.flash().cut_after(k, torn);
+    let r = q.save(node(new).core(), GroupMask::ALL);
+    if k >= ops {
+        assert_eq!(r, Ok(()));
+        return;
+    }
+    assert_eq!(r, Err(SaveError::Flash(FlashError::PowerLost)), "cut at {k}");
+    q.flash().power_on();
+    let ops_before_load = q.flash().ops();
+    let after = q.load();
+    assert_eq!(q.flash().ops(), ops_before_load, "power-on never writes");
+    if torn.is_none() || k + 1 < ops {
+        assert_eq!(after, *old, "cut at op {k}/{ops} torn {torn:?}");
+    } else {
+        assert!(after == *old || after == Loaded::Image(new_image.clone()), "cut at op {k}/{ops}: {after:?}");
+    }
+    assert_eq!(save(&mut q, new), new_image, "the save works after the cut");
+}
+
+/// Every operation of a save of `new`, every torn variant.
+fn sweep(p: &ParamFlash<RamFlash>, new: &[(u16, u8, u32)]) -> u64 {
+    let old = p.clone().load();
+    let mut probe = p.clone();
+    let start = probe.flash().ops();
+    save(&mut probe, new);
+    let ops = probe.flash().ops() - start;
+    for k in 0..ops {
+        for torn in TORN {
+            cut_and_check(p, &old, new, k, torn);
+        }
+    }
+    ops
+}
+
+#[test]
+fn first_save_on_blank_flash_survives_every_cut() {
+    let ops = sweep(&blank(), &values(1));
+    // 1 erase, 4 records of 4 half-words, a 12-half-word header, a 4-half-word marker.
+    assert_eq!(ops, 1 + 4 * 4 + 12 + 4);
+}
+
+#[test]
+fn saves_around_the_ring_survive_every_cut() {
+    let mut p = blank();
+    for n in 0..(2 * PAGES + 1) {
+        sweep(&p, &values(n + 10));
+        save(&mut p, &values(n));
+    }
+}
+
+#[test]
+fn the_newest_image_wins_and_wear_is_spread() {
+    let mut p = blank();
+    for n in 0..30 {
+        let image = save(&mut p, &values(n));
+        assert_eq!(image.get(0x6002, 0).map(|r| r.value), Some(5000 + n));
+    }
+    for page in 1..=PAGES as usize {
+        assert_eq!(p.flash().erase_count(page), 10, "page {page}");
+    }
+    assert_eq!(p.flash().erase_count(0), 0, "outside the region");
+    assert!(p.flash().bytes()[..PAGE].iter().all(|&b| b == 0xFF));
+}
+
+#[test]
+fn an_interrupted_save_is_retried_on_the_same_page() {
+    let mut p = blank();
+    save(&mut p, &values(1));
+    p.flash().cut_after(5, None);
+    assert!(p.save(node(&values(2)).core(), GroupMask::ALL).is_err());
+    p.flash().power_on();
+    save(&mut p, &values(3));
+    assert_eq!(p.flash().erase_count(2), 2, "page 2 erased by the cut save and the retry");
+    assert_eq!(p.flash().erase_count(3), 0);
+}
+
+#[test]
+fn a_worn_flash_fails_the_save_and_keeps_the_old_image() {
+    let mut p = blank();
+    let old = save(&mut p, &values(1));
+    p.flash().set_worn(true);
+    assert_eq!(p.save(node(&values(2)).core(), GroupMask::ALL), Err(SaveError::Flash(FlashError::Worn)));
+    p.flash().set_worn(false);
+    assert_eq!(p.load(), Loaded::Image(old));
+}
+
+#[test]
+fn blank_zeroed_corrupt_and_foreign_flash() {
+    assert_eq!(blank().load(), Loaded::Blank);
+
+    let mut zero = params(RamFlash::from_bytes(vec![0; (1 + PAGES as usize) * PAGE]));
+    assert_eq!(zero.load(), Loaded::Invalid);
+
+    let mut garbage = blank();
+    garbage.flash().bytes_mut()[2 * PAGE..3 * PAGE].fill(0x42);
+    assert_eq!(garbage.load(), Loaded::Invalid);
+
+    // A valid image with one flipped bit in a record: refused.
+    let mut p = blank();
+    save(&mut p, &values(1));
+    p.flash().bytes_mut()[PAGE + 40] ^= 0x04;
+    assert_eq!(p.load(), Loaded::Invalid);
+
+    // An image of another device.
+    let mut other = ParamFlash::new(RamFlash::new(1 + PAGES as usize), REGION, identity(sgh10::TABLE) ^ 1);
+    other.save(node(&values(1)).core(), GroupMask::ALL).unwrap();
+    assert_eq!(params(other.flash().clone()).load(), Loaded::Invalid);
+
+    // A flash that cannot be read is no image either.
+    let mut dead = blank();
+    dead.flash().cut_after(0, None);
+    let _ = dead.flash().erase(0, PAGE as u32);
+    assert_eq!(dead.load(), Loaded::Invalid);
+
+    // Garbage outside the region does not matter.
+    let mut outside = blank();
+    outside.flash().bytes_mut()[..PAGE].fill(0);
+    assert_eq!(outside.load(), Loaded::Blank);
+}
+
+#[test]
+fn a_corrupt_newest_image_falls_back_to_the_one_before() {
+    let mut p = blank();
+    let first = save(&mut p, &values(1));
+    save(&mut p, &values(2));
+    p.flash().bytes_mut()[2 * PAGE + 33] ^= 0x80; // page 2 holds the second image
+    assert_eq!(p.load(), Loaded::Image(first));
+}
+
+#[test]
+fn region_misuse_is_an_error_not_a_panic() {
+    let mut one = ParamFlash::new(RamFlash::new(2), Region { offset: 0, pages: 1 }, 1);
+    assert_eq!(one.save(node(&[]).core(), GroupMask::ALL), Err(SaveError::Region));
+    let mut odd = ParamFlash::new(RamFlash::new(3), Region { offset: 10, pages: 2 }, 1);
+    assert_eq!(odd.save(node(&[]).core(), GroupMask::ALL), Err(SaveError::Region));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Random values, a random history of saves, a random cut point and tear.
+    #[test]
+    fn random_values_random_cuts(
+        history in proptest::collection::vec((any::<u16>(), any::<u32>(), 1u8..=127, -20478i32..=30717), 0..7),
+        new in (any::<u16>(), any::<u32>(), 1u8..=127, -20478i32..=30717),
+        k in 0u64..40,
+        torn in proptest::option::of(any::<u16>()),
+    ) {
+        let as_values = |(a, b, c, d): (u16, u32, u8, i32)| -> Values {
+            vec![(0x1017, 0, a as u32), (0x6002, 0, b), (0x5F0A, 1, c as u32), (0x6401, 1, d as u32)]
+        };
+        let mut p = blank();
+        for h in &history {
+            save(&mut p, &as_values(*h));
+        }
+        let old = p.clone().load();
+        cut_and_check(&p, &old, &as_values(new), k, torn);
+    }
+}
