@@ -10,9 +10,10 @@
 //! number). Configure node-ID and configure bit timing set the *pending* values, which are the
 //! dictionary entries hooked [`CoreHook::PendingNodeId`] and [`CoreHook::PendingBitrate`]
 //! (5F0Ah.01/.02 on the SIKO encoders); an NMT reset activates them (`node.rs`), and so does
-//! switching an unconfigured node back to LSS waiting (CiA 305) and the end of an activate bit
-//! timing (the manuals' boot-up on the new rate). The bit-rate code the pending entry holds is
-//! the device's ([`crate::node::Device::bitrate_codes`]), not the CiA 305 table index.
+//! switching an unconfigured node back to LSS waiting (CiA 305). Activate bit timing switches
+//! to the pending bit rate after delay d1 and, after d2, restarts communication on it with a
+//! boot-up (the manuals). The bit-rate code the pending entry holds is the device's
+//! ([`crate::node::Device::bitrate_codes`]), not the CiA 305 table index.
 //!
 //! Frames are parsed into [`Request`]s and answered with [`Response`]s, the smoltcp way:
 //! `parse` never panics and rejects whatever is not a well-formed 8-byte LSS frame; `emit`
@@ -21,6 +22,7 @@
 
 use crate::bitrate::Bitrate;
 use crate::frame::{CanId, Frame};
+use crate::nmt::NmtState;
 use crate::node::{Core, Output};
 use crate::od::{CoreHook, GroupMask, Od};
 use crate::storage;
@@ -415,17 +417,24 @@ pub enum LssEvent {
     None,
     /// Reset communication (NMT 82h semantics: the pending node-ID and bit rate become
     /// active, boot-up follows): an unconfigured node got a node-ID and was switched back to
-    /// LSS waiting, or an activate bit timing has run its two delays.
+    /// LSS waiting.
     ResetCommunication,
+    /// An activate bit timing has run its two delays: communication restarts on the new rate
+    /// (NMT INITIALISATION, then the boot-up message) with the active node-ID and every
+    /// parameter kept.
+    BootUp,
 }
 
 /// An activate bit timing under way: the rate switches at `adopt_at`, the boot-up goes out
-/// at `boot_at`; nothing is sent or received meanwhile.
+/// at `boot_at`; the node sends nothing meanwhile.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 struct Switch {
     adopt_at: Instant,
     boot_at: Instant,
     adopted: bool,
+    /// An unconfigured node with a pending node-ID was switched to LSS waiting meanwhile: it
+    /// activates the node-ID at the end of the switch instead of at once.
+    activate: bool,
 }
 
 /// LSS slave state.
@@ -483,13 +492,14 @@ impl Lss {
         self.state
     }
 
-    /// Is an activate bit timing under way? The node then neither sends nor handles frames.
+    /// Is an activate bit timing under way? The node then sends nothing and handles only LSS
+    /// switch state global.
     pub fn switching(&self) -> bool {
         self.switch.is_some()
     }
 
     /// Back to LSS waiting with no service half done.
-    fn to_waiting(&mut self) {
+    fn enter_waiting(&mut self) {
         self.state = LssState::Waiting;
         self.selective = 0;
         self.identify = 0;
@@ -527,31 +537,53 @@ fn send(core: &mut Core, response: Response) {
     core.out.send(response.emit());
 }
 
+/// Switch state global. True when the node must now activate its pending node-ID: CiA 305
+/// has a node without a node-ID that got one activate it on its own when switched back to
+/// waiting (no NMT command can reach it); a configured node waits for NMT reset communication.
+fn switch_global(core: &mut Core, to: LssState) -> bool {
+    let was = core.lss.state;
+    match to {
+        LssState::Configuration => {
+            core.lss.state = LssState::Configuration;
+            false
+        }
+        LssState::Waiting => {
+            core.lss.enter_waiting();
+            was == LssState::Configuration && !core.configured() && (1..=127).contains(&pending_node_id(core))
+        }
+    }
+}
+
 /// Handles a frame on 7E5h. Requests the LSS state does not allow, and malformed frames, are
 /// ignored without an answer (the manuals' Table 10; CiA 305 has no error answer for them).
+/// During an activate bit timing only switch state global, which has no answer, is handled.
 pub fn on_frame(core: &mut Core, frame: &Frame, now: Instant) -> LssEvent {
-    if !core.lss.enabled || core.lss.switching() {
+    if !core.lss.enabled {
         return LssEvent::None;
     }
     let Some(request) = Request::parse(frame) else {
         return LssEvent::None;
     };
-    match (core.lss.state, request) {
-        (_, Request::SwitchStateGlobal(LssState::Configuration)) => core.lss.state = LssState::Configuration,
-        (was, Request::SwitchStateGlobal(LssState::Waiting)) => {
-            core.lss.to_waiting();
-            // CiA 305: a node without a node-ID that got one activates it on its own (no NMT
-            // command can reach it); a configured node waits for NMT reset communication.
-            if was == LssState::Configuration && !core.configured() && (1..=127).contains(&pending_node_id(core)) {
-                return LssEvent::ResetCommunication;
+    if let Request::SwitchStateGlobal(to) = request {
+        let activate = switch_global(core, to);
+        return match core.lss.switch.as_mut() {
+            // During a bit-rate switch the activation waits for its end.
+            Some(s) => {
+                s.activate |= activate;
+                LssEvent::None
             }
-        }
+            None if activate => LssEvent::ResetCommunication,
+            None => LssEvent::None,
+        };
+    }
+    if core.lss.switching() {
+        return LssEvent::None;
+    }
+    match (core.lss.state, request) {
         (LssState::Waiting, Request::SwitchStateSelective { part, value }) => switch_selective(core, part, value),
         (_, Request::IdentifyRemoteSlave { step, value }) => identify(core, step, value),
-        (_, Request::IdentifyNonConfiguredRemoteSlave) => {
-            if non_configured(core) {
-                send(core, Response::IdentifyNonConfiguredSlave);
-            }
+        (_, Request::IdentifyNonConfiguredRemoteSlave) if non_configured(core) => {
+            send(core, Response::IdentifyNonConfiguredSlave)
         }
         (LssState::Waiting, Request::Fastscan { id, bit_checked, sub, next }) => {
             fastscan(core, id, bit_checked, sub, next)
@@ -584,20 +616,25 @@ pub fn on_frame(core: &mut Core, frame: &Frame, now: Instant) -> LssEvent {
             };
             send(core, Response::ConfigureBitTiming { error, spec: 0 });
         }
-        (LssState::Configuration, Request::ActivateBitTiming { delay_ms }) => {
+        // Not while a store waits for the shell: its answer would fall into the silence.
+        (LssState::Configuration, Request::ActivateBitTiming { delay_ms }) if !core.storage.saving() => {
             let delay = delay_ms as u64 * 1000;
-            core.lss.switch =
-                Some(Switch { adopt_at: now.add_micros(delay), boot_at: now.add_micros(2 * delay), adopted: false });
+            core.lss.switch = Some(Switch {
+                adopt_at: now.add_micros(delay),
+                boot_at: now.add_micros(2 * delay),
+                adopted: false,
+                activate: false,
+            });
+            // The node leaves the bus until its boot-up on the new rate: no service sends.
+            core.nmt = NmtState::Initialising;
         }
-        (LssState::Configuration, Request::StoreConfiguration) => {
-            // A repeated request gets the one answer when the shell is done. While a 1010h save
-            // is under way the store cannot start: "error occurred during storing".
-            if !core.lss.storing {
-                if storage::request(core, GroupMask::LSS).is_ok() {
-                    core.lss.storing = true;
-                } else {
-                    send(core, Response::StoreConfiguration { error: error::STORE_FAILED, spec: 0 });
-                }
+        // A repeated request gets the one answer when the shell is done.
+        (LssState::Configuration, Request::StoreConfiguration) if !core.lss.storing => {
+            if storage::request(core, GroupMask::LSS).is_ok() {
+                core.lss.storing = true;
+            } else {
+                // A 1010h save is under way: this store cannot start.
+                send(core, Response::StoreConfiguration { error: error::STORE_FAILED, spec: 0 });
             }
         }
         (LssState::Configuration, Request::InquireIdentity(part)) => {
@@ -608,7 +645,8 @@ pub fn on_frame(core: &mut Core, frame: &Frame, now: Instant) -> LssEvent {
             let id = core.node_id;
             send(core, Response::InquireNodeId(id));
         }
-        // Selective and Fastscan in configuration, configuration services in waiting.
+        // Selective and Fastscan in configuration, configuration services in waiting, and the
+        // refused cases above.
         _ => {}
     }
     LssEvent::None
@@ -673,8 +711,9 @@ fn fastscan(core: &mut Core, id: u32, bit_checked: u8, sub: Part, next: Part) {
 }
 
 /// Runs the activate bit timing delays: after d1 the node switches to the pending rate
-/// ([`Output::SetBitrate`]); after d2 it asks for a communication reset, whose boot-up goes
-/// out on the new rate.
+/// ([`Output::SetBitrate`]); after d2 it asks for its boot-up on the new rate
+/// ([`LssEvent::BootUp`], or [`LssEvent::ResetCommunication`] for an unconfigured node
+/// switched to LSS waiting meanwhile).
 pub fn poll(core: &mut Core, now: Instant) -> LssEvent {
     let Some(switch) = core.lss.switch.as_mut() else {
         return LssEvent::None;
@@ -690,7 +729,11 @@ pub fn poll(core: &mut Core, now: Instant) -> LssEvent {
     match core.lss.switch {
         Some(s) if s.adopted && now >= s.boot_at => {
             core.lss.switch = None;
-            LssEvent::ResetCommunication
+            if s.activate {
+                LssEvent::ResetCommunication
+            } else {
+                LssEvent::BootUp
+            }
         }
         _ => LssEvent::None,
     }
@@ -705,7 +748,7 @@ pub fn next_deadline(core: &Core) -> Option<Instant> {
 /// (CiA 305, and the manuals: "After starting, the device will be in the LSS waiting state").
 /// A store under way still gets its answer.
 pub fn reset(core: &mut Core) {
-    core.lss.to_waiting();
+    core.lss.enter_waiting();
     core.lss.switch = None;
 }
 

@@ -247,17 +247,13 @@ impl<D: Device> Node<D> {
 
     /// Handles one received frame.
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
-        // During an LSS bit-rate switch the node takes no part in bus traffic (CiA 305).
-        if self.core.lss.switching() {
-            return;
-        }
         // LSS works in every NMT state and without a node-ID (CiA 305).
         if frame.id == CanId::Std(lss::RX_ID) && self.core.lss.enabled() {
-            if lss::on_frame(&mut self.core, frame, now) == LssEvent::ResetCommunication {
-                self.reset(ResetKind::Communication, now);
-            }
+            let event = lss::on_frame(&mut self.core, frame, now);
+            self.on_lss(event, now);
             return;
         }
+        // An LSS bit-rate switch sets INITIALISATION: nothing else is handled until boot-up.
         if !self.core.configured() || self.core.nmt == NmtState::Initialising {
             return;
         }
@@ -292,9 +288,8 @@ impl<D: Device> Node<D> {
 
     /// Runs the timers due at `now`.
     pub fn poll(&mut self, now: Instant) {
-        if lss::poll(&mut self.core, now) == LssEvent::ResetCommunication {
-            self.reset(ResetKind::Communication, now);
-        }
+        let event = lss::poll(&mut self.core, now);
+        self.on_lss(event, now);
         if !self.core.configured() || self.core.lss.switching() {
             return;
         }
@@ -343,6 +338,18 @@ impl<D: Device> Node<D> {
     fn send_sdo(&mut self, response: Option<[u8; 8]>) {
         if let Some(data) = response {
             self.core.out.send(Frame::std(0x580 + self.core.node_id as u16, &data));
+        }
+    }
+
+    fn on_lss(&mut self, event: LssEvent, now: Instant) {
+        match event {
+            LssEvent::None => {}
+            LssEvent::ResetCommunication => self.reset(ResetKind::Communication, now),
+            // Communication restarts on the new bit rate: `poll` sends the boot-up next.
+            LssEvent::BootUp => {
+                self.core.nmt = NmtState::Initialising;
+                self.sdo.reset();
+            }
         }
     }
 
