@@ -518,7 +518,7 @@ fn rate_of(codes: &[(u32, Bitrate)], code: u32) -> Option<Bitrate> {
 }
 
 /// The pending node-ID (what the next reset activates).
-pub fn pending_node_id(core: &Core) -> u8 {
+fn pending_node_id(core: &Core) -> u8 {
     core.od.get(core.lss.pending_node_id) as u8
 }
 
