@@ -11,7 +11,7 @@ use crate::emcy::{self, Emcy};
 use crate::frame::{CanId, Frame};
 use crate::guarding::{self, Guarding};
 use crate::heartbeat::{self, Heartbeat};
-use crate::lss::{self, Lss};
+use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
 use crate::od::{CoreHook, Entry, GroupMask, Hook, Od};
 use crate::pdo::{self, PdoEvent, Pdos};
@@ -152,6 +152,12 @@ pub trait Device {
     fn next_deadline(&self) -> Option<Instant> {
         None
     }
+
+    /// Does the device have an LSS slave (CiA 305)? The SGH10, SGH50 and WV5800M do; the
+    /// AP10T and the WV58MR have none and return false: their node then ignores 7E5h.
+    fn has_lss(&self) -> bool {
+        true
+    }
 }
 
 /// A CANopen node running device `D`.
@@ -197,6 +203,7 @@ impl<D: Device> Node<D> {
     fn power_on(device: D, loaded: &Loaded, fallback_node_id: u8) -> Node<D> {
         let (od, storage, node_id) = storage::power_on(device.table(), loaded, fallback_node_id);
         let bitrate = pending_bitrate(&device, &od).unwrap_or(Bitrate::K500);
+        let lss = Lss::new(&od, device.has_lss(), device.bitrate_codes());
         let core = Core {
             od,
             nmt: NmtState::Initialising,
@@ -207,7 +214,7 @@ impl<D: Device> Node<D> {
             heartbeat: Heartbeat::default(),
             guarding: Guarding::default(),
             pdo: Pdos::default(),
-            lss: Lss::default(),
+            lss,
             storage,
         };
         Node { core, device, sdo: SdoServer::new() }
@@ -241,10 +248,12 @@ impl<D: Device> Node<D> {
     /// Handles one received frame.
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
         // LSS works in every NMT state and without a node-ID (CiA 305).
-        if frame.id == CanId::Std(lss::RX_ID) {
-            lss::on_frame(&mut self.core, frame, now);
+        if frame.id == CanId::Std(lss::RX_ID) && self.core.lss.enabled() {
+            let event = lss::on_frame(&mut self.core, frame, now);
+            self.on_lss(event, now);
             return;
         }
+        // An LSS bit-rate switch sets INITIALISATION: nothing else is handled until boot-up.
         if !self.core.configured() || self.core.nmt == NmtState::Initialising {
             return;
         }
@@ -279,8 +288,9 @@ impl<D: Device> Node<D> {
 
     /// Runs the timers due at `now`.
     pub fn poll(&mut self, now: Instant) {
-        lss::poll(&mut self.core, now);
-        if !self.core.configured() {
+        let event = lss::poll(&mut self.core, now);
+        self.on_lss(event, now);
+        if !self.core.configured() || self.core.lss.switching() {
             return;
         }
         if self.core.nmt == NmtState::Initialising {
@@ -299,6 +309,9 @@ impl<D: Device> Node<D> {
     pub fn next_deadline(&self) -> Option<Instant> {
         let core = &self.core;
         let mut next = lss::next_deadline(core);
+        if core.lss.switching() {
+            return next;
+        }
         if core.configured() {
             if core.nmt == NmtState::Initialising {
                 return Some(Instant::ZERO);
@@ -312,8 +325,12 @@ impl<D: Device> Node<D> {
     }
 
     /// The shell has finished (or failed) the [`Output::Store`] it was given.
+    /// The result goes to whoever asked: LSS store configuration, else the SDO server (1010h).
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
         storage::store_done(&mut self.core, result.is_ok(), now);
+        if lss::store_done(&mut self.core, result.is_ok()) {
+            return;
+        }
         let response = self.sdo.complete_deferred(result.map_err(|()| Abort::CANNOT_STORE));
         self.send_sdo(response);
     }
@@ -321,6 +338,18 @@ impl<D: Device> Node<D> {
     fn send_sdo(&mut self, response: Option<[u8; 8]>) {
         if let Some(data) = response {
             self.core.out.send(Frame::std(0x580 + self.core.node_id as u16, &data));
+        }
+    }
+
+    fn on_lss(&mut self, event: LssEvent, now: Instant) {
+        match event {
+            LssEvent::None => {}
+            LssEvent::ResetCommunication => self.reset(ResetKind::Communication, now),
+            // Communication restarts on the new bit rate: `poll` sends the boot-up next.
+            LssEvent::BootUp => {
+                self.core.nmt = NmtState::Initialising;
+                self.sdo.reset();
+            }
         }
     }
 
@@ -344,14 +373,16 @@ impl<D: Device> Node<D> {
         let device = &self.device;
         storage::reload(&mut self.core, kind, |e, groups| device.restores(e, groups));
         self.activate_pending();
+        lss::reset(&mut self.core);
         emcy::reset(&mut self.core);
         self.device.on_reset(&mut self.core, kind, now);
     }
 
-    /// A reset activates the pending node-ID and bit rate (5F0Ah and alike).
+    /// A reset activates the pending node-ID and bit rate (5F0Ah and alike, set by SDO or
+    /// LSS). Node-ID FFh is LSS "unconfigured": the node then answers LSS only.
     fn activate_pending(&mut self) {
         if let Some(id) = storage::pending(&self.core.od, CoreHook::PendingNodeId) {
-            if (1..=127).contains(&id) {
+            if (1..=127).contains(&id) || id == lss::UNCONFIGURED as u32 {
                 self.core.node_id = id as u8;
             }
         }
@@ -433,8 +464,9 @@ fn core_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Inst
         | CoreHook::PdoCobId
         | CoreHook::PdoTransmissionType
         | CoreHook::PdoEventTimer
-        | CoreHook::PdoMapping
-        | CoreHook::PendingNodeId
-        | CoreHook::PendingBitrate => Ok(Written::Done),
+        | CoreHook::PdoMapping => Ok(Written::Done),
+        // 5F0Ah and alike hold the pending node-ID and bit-rate code: storing the value (its
+        // range is the entry's limits) is the whole write; the next reset activates it.
+        CoreHook::PendingNodeId | CoreHook::PendingBitrate => Ok(Written::Done),
     }
 }

@@ -435,6 +435,12 @@ impl Od {
         self.find(index, sub).ok()
     }
 
+    /// Position of the entry whose write hook is `hook` (the pending node-ID, the pending
+    /// bit rate ...), if the dictionary declares one; the first one if several.
+    pub fn find_hook(&self, hook: CoreHook) -> Option<usize> {
+        self.table.iter().position(|e| e.hook == Hook::Core(hook))
+    }
+
     /// Raw value at `pos`.
     pub fn get(&self, pos: usize) -> u32 {
         self.values[pos]

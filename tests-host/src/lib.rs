@@ -8,7 +8,8 @@ use od_core::node::Device;
 use od_core::od::Entry;
 
 /// A device with a dictionary and no behaviour of its own: what the communication-profile
-/// tests need before a device profile is involved.
+/// tests need before a device profile is involved. It keeps the `Device` defaults: the SIKO
+/// bit-rate codes of 5F0Ah.02 and an LSS slave (right for the SGH10, SGH50 and WV5800M tables).
 pub struct TableOnly(pub &'static [Entry]);
 
 impl Device for TableOnly {

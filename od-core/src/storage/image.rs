@@ -18,7 +18,7 @@
 //! firmware that adds or removes entries still loads every record that matches one of its
 //! entries (same size, value within the entry's limits) and ignores the rest.
 
-use crate::od::{DataType, Default, Entry};
+use crate::od::{CoreHook, DataType, Default, Entry, Hook};
 
 use super::crc::Crc32;
 
@@ -95,6 +95,11 @@ impl Record {
         }
         if e.dtype == DataType::Boolean && self.value > 1 {
             return false;
+        }
+        // LSS may store the pending node-ID FFh, "unconfigured" (CiA 305), outside the entry's
+        // SDO limits: such a node powers on answering LSS only.
+        if e.hook == Hook::Core(CoreHook::PendingNodeId) && self.value == crate::lss::UNCONFIGURED as u32 {
+            return true;
         }
         match e.limits {
             Some((lo, hi)) => (lo..=hi).contains(&e.dtype.to_i64(self.value)),

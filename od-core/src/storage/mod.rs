@@ -118,6 +118,11 @@ impl Storage {
         self.fault
     }
 
+    /// Is a store under way (requested, the shell has not reported yet)?
+    pub fn saving(&self) -> bool {
+        self.saving.is_some()
+    }
+
     /// Records the current values of the entries `select` picks as the stored ones.
     fn capture(&mut self, od: &Od, node_id: u8, select: impl Fn(&Entry) -> bool) {
         for (k, pos, e) in user_entries(od.table()) {
