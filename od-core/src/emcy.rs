@@ -1,6 +1,8 @@
 //! EMCY producer (CiA 301 §7.2.7), the 1001h error register and the 1003h error history.
 
+use crate::abort::Abort;
 use crate::node::Core;
+use crate::od::CoreHook;
 use crate::time::Instant;
 
 /// EMCY producer state.
@@ -25,4 +27,17 @@ pub fn reset(core: &mut Core) {
 /// Runs due work (deferred EMCY frames).
 pub fn poll(core: &mut Core, now: Instant) {
     let _ = (core, now);
+}
+
+/// Checks a write to 1003h sub 0 (only 0, which clears the history) or 1014h; on `Ok` the
+/// node stores the value.
+pub fn on_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+    let _ = (core, hook, pos, value, now);
+    Ok(())
+}
+
+/// Refuses reads the dictionary alone cannot judge (1003h subs above the error count).
+pub fn check_read(core: &Core, index: u16, sub: u8) -> Result<(), Abort> {
+    let _ = (core, index, sub);
+    Ok(())
 }

@@ -28,6 +28,17 @@ impl CanId {
         }
     }
 
+    /// A CAN-ID that CiA 301 §7.3.5 (table 70) reserves for NMT, SYNC/EMCY defaults, SDO,
+    /// NMT error control and LSS: no configurable COB-ID (1005h, 1014h, 14xxh, 18xxh) may use one.
+    pub const fn is_restricted(self) -> bool {
+        match self {
+            CanId::Std(id) => {
+                matches!(id, 0x000 | 0x001..=0x07F | 0x101..=0x180 | 0x581..=0x5FF | 0x601..=0x67F | 0x6E0..=0x6FF | 0x701..=0x77F | 0x780..=0x7FF)
+            }
+            CanId::Ext(_) => false,
+        }
+    }
+
     /// True for an 11-bit identifier equal to `id`.
     pub const fn is_std(self, id: u16) -> bool {
         matches!(self, CanId::Std(x) if x == id)
@@ -73,5 +84,23 @@ impl Frame {
         } else {
             &self.data[..self.len as usize]
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::CanId;
+
+    #[test]
+    fn restricted_ids_follow_cia_301_table_70() {
+        for id in
+            [0x000, 0x001, 0x07F, 0x101, 0x180, 0x581, 0x5FF, 0x601, 0x67F, 0x6E0, 0x6FF, 0x701, 0x77F, 0x780, 0x7FF]
+        {
+            assert!(CanId::Std(id).is_restricted(), "{id:03X}");
+        }
+        for id in [0x080, 0x100, 0x181, 0x1FF, 0x580, 0x600, 0x680, 0x6DF, 0x700] {
+            assert!(!CanId::Std(id).is_restricted(), "{id:03X}");
+        }
+        assert!(!CanId::Ext(0x001).is_restricted());
     }
 }

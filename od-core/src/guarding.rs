@@ -1,5 +1,6 @@
 //! Node guarding and life guarding (100Ch, 100Dh).
 
+use crate::abort::Abort;
 use crate::frame::Frame;
 use crate::node::Core;
 use crate::time::Instant;
@@ -27,4 +28,10 @@ pub fn poll(core: &mut Core, now: Instant) {
 pub fn next_deadline(core: &Core) -> Option<Instant> {
     let _ = core;
     None
+}
+
+/// Checks a write to 100Ch/100Dh (entry `pos`); on `Ok` the node stores the value.
+pub fn on_write(core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+    let _ = (core, pos, value, now);
+    Ok(())
 }

@@ -1,5 +1,6 @@
 //! Heartbeat producer (1017h).
 
+use crate::abort::Abort;
 use crate::node::Core;
 use crate::time::Instant;
 
@@ -21,4 +22,10 @@ pub fn poll(core: &mut Core, now: Instant) {
 pub fn next_deadline(core: &Core) -> Option<Instant> {
     let _ = core;
     None
+}
+
+/// Checks a write to 1017h; on `Ok` the node stores the value.
+pub fn on_write(core: &mut Core, value: u32, now: Instant) -> Result<(), Abort> {
+    let _ = (core, value, now);
+    Ok(())
 }

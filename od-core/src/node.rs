@@ -420,12 +420,14 @@ impl<D: Device> ObjectAccess for Dict<'_, D> {
     fn read_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort> {
         let pos = self.core.od.find(index, sub)?;
         self.core.od.check_read(pos)?;
+        emcy::check_read(self.core, index, sub)?;
         Ok(self.core.od.entry(pos).size())
     }
 
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort> {
         let pos = self.core.od.find(index, sub)?;
         self.core.od.check_read(pos)?;
+        emcy::check_read(self.core, index, sub)?;
         Ok(self.core.od.encode(pos, buf))
     }
 
@@ -450,21 +452,21 @@ impl<D: Device> ObjectAccess for Dict<'_, D> {
 }
 
 /// Checks a write to an entry with a core hook and applies its side effect. On `Ok` the
-/// caller stores the value (except the 1010h/1011h commands).
+/// caller stores the value (except the 1010h/1011h commands). Each service owns its rules.
 fn core_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Instant) -> Result<Written, Abort> {
-    let _ = now;
     match hook {
         CoreHook::Store => storage::on_store(core, pos, value),
         CoreHook::Restore => storage::on_restore(core, pos, value),
-        CoreHook::ErrorHistory
-        | CoreHook::SyncCobId
-        | CoreHook::EmcyCobId
-        | CoreHook::Guarding
-        | CoreHook::HeartbeatTime
+        CoreHook::ErrorHistory | CoreHook::EmcyCobId => {
+            emcy::on_write(core, hook, pos, value, now).map(|()| Written::Done)
+        }
+        CoreHook::Guarding => guarding::on_write(core, pos, value, now).map(|()| Written::Done),
+        CoreHook::HeartbeatTime => heartbeat::on_write(core, value, now).map(|()| Written::Done),
+        CoreHook::SyncCobId
         | CoreHook::PdoCobId
         | CoreHook::PdoTransmissionType
         | CoreHook::PdoEventTimer
-        | CoreHook::PdoMapping => Ok(Written::Done),
+        | CoreHook::PdoMapping => pdo::on_write(core, hook, pos, value, now).map(|()| Written::Done),
         // 5F0Ah and alike hold the pending node-ID and bit-rate code: storing the value (its
         // range is the entry's limits) is the whole write; the next reset activates it.
         CoreHook::PendingNodeId | CoreHook::PendingBitrate => Ok(Written::Done),

@@ -1,8 +1,10 @@
 //! SYNC consumer and PDOs (CiA 301 §7.2.2, §7.2.5): transmit PDOs on SYNC, timer and RTR,
 //! receive PDOs into the mapped entries.
 
+use crate::abort::Abort;
 use crate::frame::Frame;
 use crate::node::Core;
+use crate::od::CoreHook;
 use crate::time::Instant;
 
 /// What a received frame was for the PDO layer.
@@ -42,4 +44,11 @@ pub fn poll(core: &mut Core, now: Instant) {
 pub fn next_deadline(core: &Core) -> Option<Instant> {
     let _ = core;
     None
+}
+
+/// Checks a write to 1005h or a PDO parameter (entry `pos`, rule `hook`); on `Ok` the node
+/// stores the value.
+pub fn on_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+    let _ = (core, hook, pos, value, now);
+    Ok(())
 }
