@@ -297,6 +297,11 @@ pub struct EmcyConditions {
 }
 
 impl EmcyConditions {
+    /// No condition active.
+    pub const fn new() -> EmcyConditions {
+        EmcyConditions { active: 0 }
+    }
+
     /// Sets condition number `n` (`cond`) to `active`; on a change reports it to the EMCY
     /// producer. Returns true on a change.
     pub fn update(&mut self, core: &mut Core, n: usize, cond: Condition, active: bool, now: Instant) -> bool {
