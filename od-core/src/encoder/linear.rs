@@ -27,7 +27,6 @@ use crate::abort::Abort;
 use crate::encoder::{
     alarms, operating_status, warnings, Condition, EmcyConditions, SensorFault, SpeedEstimator, WorkAreas,
 };
-use crate::nmt::NmtState;
 use crate::node::{BusEvent, CanError, Core, ResetKind};
 use crate::od::{CoreHook, Od};
 use crate::pdo;
@@ -52,7 +51,8 @@ pub const SCALING_BIT: u16 = 1 << 2;
 
 /// EMCY FF05h: position value error (sensor fault).
 pub const EMCY_POSITION: Condition = Condition { code: 0xFF05, register: 0x80 };
-/// EMCY FF12h: speed error (SGH10 only).
+/// EMCY FF12h: speed error (SGH10 only): no valid speed since a sensor fault, or a speed
+/// beyond 6030h.01's range.
 pub const EMCY_SPEED: Condition = Condition { code: 0xFF12, register: 0x80 };
 /// EMCY FF15h: position error work area 1.
 pub const EMCY_AREA_1: Condition = Condition { code: 0xFF15, register: 0x80 };
@@ -169,7 +169,8 @@ pub struct Linear {
     steps: Option<i64>,
     /// The sensor's last reading was a fault.
     fault: bool,
-    /// The last speed window did not fit 6030h.01.
+    /// No valid speed: a sensor fault since the last complete window, or a window whose
+    /// speed does not fit 6030h.01.
     speed_fault: bool,
     /// The controller is error passive.
     passive: bool,
@@ -257,9 +258,8 @@ impl Linear {
             self.can = CanDiagnosis::default();
             od.set_value(0x5000, 0, 0);
         }
-        // The EMCY producer was reset with the communication: conditions still present are
-        // raised again after the boot-up.
-        self.conditions.forget();
+        // The EMCY producer keeps the active conditions over a reset (and announces them
+        // again after the boot-up), so the edge tracker keeps them too.
         self.started = true;
     }
 
@@ -299,8 +299,9 @@ impl Linear {
             Err(_) => {
                 self.fault = true;
                 self.steps = None;
+                // No speed either, until a whole integration time of good readings.
                 self.speed.reset();
-                self.speed_fault = false;
+                self.speed_fault = true;
                 od.set_value(0x6030, 1, 0);
             }
         }
@@ -322,12 +323,9 @@ impl Linear {
         self.report(core, now);
     }
 
-    /// Reports the EMCY conditions that changed. Nothing is reported before the boot-up: the
-    /// conditions present then are reported after it.
+    /// Reports the EMCY conditions that changed (the producer holds back what falls due
+    /// before the boot-up).
     fn report(&mut self, core: &mut Core, now: Instant) {
-        if core.nmt == NmtState::Initialising {
-            return;
-        }
         let c = &mut self.conditions;
         c.update(core, C_POSITION, EMCY_POSITION, self.fault, now);
         c.update(core, C_AREA_1, EMCY_AREA_1, self.areas.outside(0), now);

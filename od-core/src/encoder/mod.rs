@@ -49,6 +49,14 @@ pub trait Encoder: Device {
     fn sample_period_us(&self) -> u32;
 }
 
+/// Programs the factory serial number (what the production line does once): 1018h.04, the
+/// LSS address part, and 650Bh, the CiA 406 serial number, hold the same value. Both are
+/// factory data: a user store or restore never changes them.
+pub fn program_serial(od: &mut Od, serial: u32) {
+    od.set_value(0x1018, 4, serial);
+    od.set_value(0x650B, 0, serial);
+}
+
 /// A position difference over a measured time, as [`SpeedEstimator::push`] reports it.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Window {
