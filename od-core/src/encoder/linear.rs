@@ -255,9 +255,10 @@ impl Linear {
                 od.set(p, od.entry(p).default_value(0));
             }
             self.speed.reset();
-            self.can = CanDiagnosis::default();
-            od.set_value(0x5000, 0, 0);
         }
+        // The CAN diagnosis belongs to the communication, which both resets re-initialise.
+        self.can = CanDiagnosis::default();
+        od.set_value(0x5000, 0, 0);
         // The EMCY producer keeps the active conditions over a reset (and announces them
         // again after the boot-up), so the edge tracker keeps them too.
         self.started = true;
