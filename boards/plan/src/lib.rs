@@ -1,0 +1,21 @@
+//! `board-plan`: everything the firmware shell decides about its peripherals that can be
+//! computed without them, so that host tests cover it.
+//!
+//! - [`timing`]: bxCAN bit timing for every CANopen bit rate from the APB1 clock;
+//! - [`filters`]: the node's receive identifiers packed into bxCAN filter banks;
+//! - [`errors`]: the controller's error register turned into [`od_core::node::BusEvent`]s;
+//! - [`sensor`]: the SPI angle sensor's frame and the raw counts the devices take;
+//! - [`reset`]: why the MCU reset, from the RCC's reset flags;
+//! - [`txq`]: the transmit queue that hands frames to the mailboxes in priority order.
+//!
+//! The hardware side (Embassy, registers, pins) is in the `boards` crate and in `firmware/`,
+//! which are built for `thumbv7m-none-eabi` only.
+#![no_std]
+#![deny(missing_docs)]
+
+pub mod errors;
+pub mod filters;
+pub mod reset;
+pub mod sensor;
+pub mod timing;
+pub mod txq;
