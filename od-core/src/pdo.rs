@@ -781,15 +781,22 @@ fn slice(od: &Od, value: u32, rx: bool) -> Result<Slice, Abort> {
 /// A TPDO's payload: each mapped value's low bytes, little-endian, in mapping order.
 #[inline]
 fn pack(od: &Od, map: &Mapping) -> [u8; 8] {
-    let mut data = [0u8; 8];
+    // Every value is written as four bytes and the cursor moves by its mapped length: fixed
+    // size copies, no call, and the bytes past the mapping are overwritten or cut off.
+    let mut buf = [0u8; 12];
     let mut at = 0usize;
     for s in map.slices() {
         let v = od.get(s.pos as usize).to_le_bytes();
-        let n = s.bytes as usize;
-        data[at..at + n].copy_from_slice(&v[..n]);
-        at += n;
+        if let Some(dst) = buf.get_mut(at..at + 4) {
+            dst.copy_from_slice(&v);
+        }
+        at += s.bytes as usize;
     }
-    data
+    let mut data = [0u8; 8];
+    data.copy_from_slice(&buf[..8]);
+    // Bytes past the payload are zero (`Frame::data` contract).
+    let keep = u64::MAX.checked_shr(64 - 8 * map.len.min(8) as u32).unwrap_or(0);
+    (u64::from_le_bytes(data) & keep).to_le_bytes()
 }
 
 /// Writes an RPDO's payload into its mapped entries, after checking every value against the
