@@ -320,6 +320,13 @@ impl Entry {
         self
     }
 
+    /// Sets a fixed default other than the one the builder implies (1003h sub 0: the number
+    /// of errors, 0 by default, though the array has room for more).
+    pub const fn with_default(mut self, value: u32) -> Entry {
+        self.default = Default::Value(value);
+        self
+    }
+
     /// Marks the entry PDO-mappable.
     pub const fn pdo(mut self) -> Entry {
         self.pdo = true;

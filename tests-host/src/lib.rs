@@ -2,6 +2,7 @@
 //! scenario tests replay the manuals' examples, and (in `sim`) the real-time simulator.
 
 pub mod bus;
+pub mod eds;
 pub mod flash;
 
 use od_core::node::Device;

@@ -39,6 +39,7 @@ pub static TABLE: &[Entry] = &[
     Entry::var(0x1002, "Manufacturer status register", Unsigned32, Ro, 0),
     Entry::array(0x1003, "Pre-defined error field", 8, Rw)
         .named("Number of errors")
+        .with_default(0)
         .group(COMM)
         .hook(core(CoreHook::ErrorHistory)),
     Entry::member(0x1003, 1, "Standard error field 1", Unsigned32, Ro, 0).group(COMM),

@@ -1,0 +1,366 @@
+//! CiA 306 electronic data sheets (EDS) generated from a device's dictionary declaration.
+//!
+//! [`generate`] turns any device table (`&'static [Entry]`) and its [`EdsInfo`] into the text
+//! of an EDS file: `[FileInfo]`, `[DeviceInfo]`, `[DummyUsage]`, the object lists
+//! `[MandatoryObjects]` (1000h, 1001h, 1018h), `[OptionalObjects]` (the rest of 1000h-1FFFh
+//! and 6000h-FFFFh) and `[ManufacturerObjects]` (2000h-5FFFh), then one section per object
+//! and, for records and arrays, one per sub-index, with ParameterName, ObjectType, DataType,
+//! AccessType, DefaultValue (`$NODEID+base` for node-ID-relative defaults), PDOMapping and
+//! LowLimit/HighLimit. [`table_json`] dumps the same table as JSON for the Python check that
+//! reads the EDS back with python-canopen (`tests-host/py/test_eds.py`).
+//!
+//! The files are checked in under `eds/` at the repository root; `tests/eds.rs` fails when
+//! they differ from what this module generates (regenerate with `UPDATE_EDS=1 cargo test -p
+//! tests-host --test eds`). A device is added to [`devices`].
+
+use std::fmt::Write;
+
+use od_core::node::Device;
+use od_core::od::{Access, DataType, Default, Entry, Kind};
+use od_core::Bitrate;
+
+use crate::TableOnly;
+
+/// What an EDS says beyond the dictionary itself.
+#[derive(Clone, Debug)]
+pub struct EdsInfo {
+    /// File name, also the stem of the JSON dump (`SGH10.eds`).
+    pub file_name: &'static str,
+    /// One line describing the device.
+    pub description: &'static str,
+    /// FileVersion (a new one for each released change of the file).
+    pub file_version: u8,
+    /// FileRevision.
+    pub file_revision: u8,
+    /// Creation date as CiA 306 writes it (mm-dd-yyyy); fixed, so that the file is reproducible.
+    pub creation_date: &'static str,
+    /// Creation time (hh:mm(AM|PM)).
+    pub creation_time: &'static str,
+    /// Author.
+    pub created_by: &'static str,
+    /// Vendor name.
+    pub vendor_name: &'static str,
+    /// Order code.
+    pub order_code: &'static str,
+    /// Bit rates the device runs at.
+    pub bitrates: Vec<Bitrate>,
+    /// Does the device have an LSS slave?
+    pub lss: bool,
+}
+
+/// The devices whose EDS is checked in under `eds/`: (info, dictionary).
+pub fn devices() -> Vec<(EdsInfo, &'static [Entry])> {
+    let sgh10 = TableOnly(od_core::devices::sgh10::TABLE);
+    vec![(
+        EdsInfo {
+            file_name: "SGH10.eds",
+            description: "SIKO SGH10 / SGH10L absolute wire-actuated encoder, CANopen (CiA 301, CiA 406, CiA 305)",
+            file_version: 1,
+            file_revision: 0,
+            creation_date: "11-24-2026",
+            creation_time: "12:00PM",
+            created_by: "SIKO GmbH",
+            vendor_name: "SIKO GmbH",
+            order_code: "SGH10",
+            bitrates: rates(&sgh10),
+            lss: sgh10.has_lss(),
+        },
+        sgh10.table(),
+    )]
+}
+
+/// The bit rates a device's pending bit-rate entry can select.
+pub fn rates(device: &impl Device) -> Vec<Bitrate> {
+    device.bitrate_codes().iter().map(|(_, b)| *b).collect()
+}
+
+/// The CiA 306 AccessType.
+fn access(a: Access) -> &'static str {
+    match a {
+        Access::Ro => "ro",
+        Access::Wo => "wo",
+        Access::Rw => "rw",
+        Access::Const => "const",
+    }
+}
+
+/// A number as the EDS writes it: hexadecimal, negative INTEGERs in decimal.
+fn number(dtype: DataType, raw: u32) -> String {
+    let v = dtype.to_i64(raw);
+    if v < 0 {
+        v.to_string()
+    } else {
+        format!("0x{v:X}")
+    }
+}
+
+/// A limit (already in the type's numeric range).
+fn limit(v: i64) -> String {
+    if v < 0 {
+        v.to_string()
+    } else {
+        format!("0x{v:X}")
+    }
+}
+
+/// The DefaultValue of an entry.
+fn default_value(e: &Entry) -> String {
+    match e.default {
+        Default::Value(v) => number(e.dtype, v),
+        Default::PlusNodeId(base) => format!("$NODEID+0x{base:X}"),
+        Default::Str(s) => s.to_string(),
+    }
+}
+
+/// The name of an object: the record/array name for a head, the entry's own for a variable.
+fn object_name(e: &Entry) -> &'static str {
+    match e.kind {
+        Kind::Head { object, .. } => object,
+        _ => e.name,
+    }
+}
+
+/// Writes the keys of one variable (a VAR object or a sub-index).
+fn variable(out: &mut String, e: &Entry) {
+    let _ = writeln!(out, "ParameterName={}", e.name);
+    let _ = writeln!(out, "ObjectType=0x7");
+    let _ = writeln!(out, "DataType=0x{:04X}", e.dtype as u16);
+    let _ = writeln!(out, "AccessType={}", access(e.access));
+    let _ = writeln!(out, "DefaultValue={}", default_value(e));
+    let _ = writeln!(out, "PDOMapping={}", e.pdo as u8);
+    if let Some((lo, hi)) = e.limits {
+        let _ = writeln!(out, "LowLimit={}", limit(lo));
+        let _ = writeln!(out, "HighLimit={}", limit(hi));
+    }
+}
+
+/// The object indices of `table` that `pick` selects, in order, each once.
+fn objects(table: &[Entry], pick: impl Fn(u16) -> bool) -> Vec<u16> {
+    let mut v: Vec<u16> = table.iter().map(|e| e.index).filter(|i| pick(*i)).collect();
+    v.dedup();
+    v
+}
+
+fn object_list(out: &mut String, section: &str, list: &[u16]) {
+    let _ = writeln!(out, "[{section}]");
+    let _ = writeln!(out, "SupportedObjects={}", list.len());
+    for (n, index) in list.iter().enumerate() {
+        let _ = writeln!(out, "{}=0x{index:04X}", n + 1);
+    }
+    out.push('\n');
+}
+
+/// Is the object one CiA 306 lists under [MandatoryObjects]?
+fn mandatory(index: u16) -> bool {
+    matches!(index, 0x1000 | 0x1001 | 0x1018)
+}
+
+/// Is the object manufacturer-specific (2000h-5FFFh)?
+fn manufacturer(index: u16) -> bool {
+    (0x2000..=0x5FFF).contains(&index)
+}
+
+/// The EDS text of the device `table` described by `info`.
+///
+/// Panics if the table lacks the identity (1018h.01..03) or the device name (1008h): every
+/// CANopen device declares them (CiA 301 mandatory/usual objects).
+pub fn generate(info: &EdsInfo, table: &[Entry]) -> String {
+    let find = |index: u16, sub: u8| table.iter().find(|e| e.index == index && e.sub == sub);
+    let ident = |sub: u8| find(0x1018, sub).map(|e| e.default_value(0)).expect("1018h identity declared");
+    let product = match find(0x1008, 0).map(|e| e.default) {
+        Some(Default::Str(s)) => s,
+        _ => panic!("1008h device name declared"),
+    };
+    let mut out = String::new();
+    let w = &mut out;
+    let _ = writeln!(w, "[FileInfo]");
+    let _ = writeln!(w, "FileName={}", info.file_name);
+    let _ = writeln!(w, "FileVersion={}", info.file_version);
+    let _ = writeln!(w, "FileRevision={}", info.file_revision);
+    let _ = writeln!(w, "EDSVersion=4.0");
+    let _ = writeln!(w, "Description={}", info.description);
+    let _ = writeln!(w, "CreationTime={}", info.creation_time);
+    let _ = writeln!(w, "CreationDate={}", info.creation_date);
+    let _ = writeln!(w, "CreatedBy={}", info.created_by);
+    let _ = writeln!(w, "ModificationTime={}", info.creation_time);
+    let _ = writeln!(w, "ModificationDate={}", info.creation_date);
+    let _ = writeln!(w, "ModifiedBy={}", info.created_by);
+    w.push('\n');
+    let _ = writeln!(w, "[DeviceInfo]");
+    let _ = writeln!(w, "VendorName={}", info.vendor_name);
+    let _ = writeln!(w, "VendorNumber=0x{:X}", ident(1));
+    let _ = writeln!(w, "ProductName={product}");
+    let _ = writeln!(w, "ProductNumber=0x{:X}", ident(2));
+    let _ = writeln!(w, "RevisionNumber=0x{:X}", ident(3));
+    let _ = writeln!(w, "OrderCode={}", info.order_code);
+    for rate in [10, 20, 50, 125, 250, 500, 800, 1000] {
+        let ok = info.bitrates.iter().any(|b| b.kbit() == rate);
+        let _ = writeln!(w, "BaudRate_{rate}={}", ok as u8);
+    }
+    let tx = objects(table, |i| (0x1800..=0x19FF).contains(&i)).len();
+    let rx = objects(table, |i| (0x1400..=0x15FF).contains(&i)).len();
+    let _ = writeln!(w, "SimpleBootUpMaster=0");
+    let _ = writeln!(w, "SimpleBootUpSlave=1");
+    // Mapping entries are read-only in every device: no granularity.
+    let _ = writeln!(w, "Granularity=0");
+    let _ = writeln!(w, "DynamicChannelsSupported=0");
+    let _ = writeln!(w, "GroupMessaging=0");
+    let _ = writeln!(w, "NrOfRXPDO={rx}");
+    let _ = writeln!(w, "NrOfTXPDO={tx}");
+    let _ = writeln!(w, "LSS_Supported={}", info.lss as u8);
+    w.push('\n');
+    let _ = writeln!(w, "[DummyUsage]");
+    for n in 1..=7 {
+        let _ = writeln!(w, "Dummy{n:04}=0");
+    }
+    w.push('\n');
+    object_list(w, "MandatoryObjects", &objects(table, mandatory));
+    object_list(w, "OptionalObjects", &objects(table, |i| !mandatory(i) && !manufacturer(i)));
+    object_list(w, "ManufacturerObjects", &objects(table, manufacturer));
+    for (pos, e) in table.iter().enumerate() {
+        match e.kind {
+            Kind::Var => {
+                let _ = writeln!(w, "[{:04X}]", e.index);
+                variable(w, e);
+            }
+            Kind::Head { .. } => {
+                let subs = table[pos..].iter().take_while(|x| x.index == e.index).count();
+                let _ = writeln!(w, "[{:04X}]", e.index);
+                let _ = writeln!(w, "ParameterName={}", object_name(e));
+                let _ = writeln!(w, "ObjectType=0x{:X}", e.object_type());
+                let _ = writeln!(w, "SubNumber={subs}");
+                w.push('\n');
+                let _ = writeln!(w, "[{:04X}sub0]", e.index);
+                variable(w, e);
+            }
+            Kind::Member => {
+                let _ = writeln!(w, "[{:04X}sub{:X}]", e.index, e.sub);
+                variable(w, e);
+            }
+        }
+        w.push('\n');
+    }
+    out
+}
+
+/// A JSON string literal.
+fn json_str(s: &str) -> String {
+    let mut o = String::from("\"");
+    for c in s.chars() {
+        match c {
+            '"' => o.push_str("\\\""),
+            '\\' => o.push_str("\\\\"),
+            c if (c as u32) < 0x20 => {
+                let _ = write!(o, "\\u{:04x}", c as u32);
+            }
+            c => o.push(c),
+        }
+    }
+    o.push('"');
+    o
+}
+
+/// The table as JSON, one object per entry: index, sub, name, data_type (CiA 301 code),
+/// object (the name of the object it belongs to), access, pdo, default (number, with `node_id_base` true for `$NODEID+` defaults; or a
+/// string), low/high limits (or null). What the Python check compares the EDS with.
+pub fn table_json(table: &[Entry]) -> String {
+    let mut out = String::from("[\n");
+    let mut object = "";
+    for (n, e) in table.iter().enumerate() {
+        if e.kind != Kind::Member {
+            object = object_name(e);
+        }
+        let (default, relative) = match e.default {
+            Default::Value(v) => (e.dtype.to_i64(v).to_string(), false),
+            Default::PlusNodeId(b) => (b.to_string(), true),
+            Default::Str(s) => (json_str(s), false),
+        };
+        let (lo, hi) = match e.limits {
+            Some((lo, hi)) => (lo.to_string(), hi.to_string()),
+            None => ("null".into(), "null".into()),
+        };
+        let _ = write!(
+            out,
+            "  {{\"index\": {}, \"sub\": {}, \"name\": {}, \"object\": {}, \"data_type\": {}, \"access\": \"{}\", \
+             \"pdo\": {}, \"default\": {}, \"node_id_relative\": {}, \"low\": {}, \"high\": {}}}",
+            e.index,
+            e.sub,
+            json_str(e.name),
+            json_str(object),
+            e.dtype as u16,
+            access(e.access),
+            e.pdo,
+            default,
+            relative,
+            lo,
+            hi
+        );
+        out.push_str(if n + 1 < table.len() { ",\n" } else { "\n" });
+    }
+    out.push_str("]\n");
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use od_core::od::{Access::*, DataType::*};
+
+    static T: &[Entry] = &[
+        Entry::var(0x1000, "Device type", Unsigned32, Const, 0x000A_0196),
+        Entry::string(0x1008, "Name", "X"),
+        Entry::var(0x1014, "COB-ID EMCY", Unsigned32, Rw, 0).plus_node_id(0x80),
+        Entry::record(0x1018, "Identity object", 3, Const),
+        Entry::member(0x1018, 1, "Vendor-ID", Unsigned32, Ro, 0x195),
+        Entry::member(0x1018, 2, "Product code", Unsigned32, Ro, 7),
+        Entry::member(0x1018, 3, "Revision number", Unsigned32, Ro, 8),
+        Entry::var(0x5000, "M", Unsigned8, Rw, 1),
+        Entry::var(0x6401, "Limit", Integer32, Rw, -5i32 as u32).range(-10, 10).pdo(),
+    ];
+
+    fn info() -> EdsInfo {
+        EdsInfo {
+            file_name: "X.eds",
+            description: "x",
+            file_version: 1,
+            file_revision: 0,
+            creation_date: "01-01-2026",
+            creation_time: "12:00PM",
+            created_by: "me",
+            vendor_name: "v",
+            order_code: "o",
+            bitrates: vec![Bitrate::K125, Bitrate::K1000],
+            lss: false,
+        }
+    }
+
+    #[test]
+    fn sections_and_keys() {
+        let eds = generate(&info(), T);
+        for needle in [
+            "VendorNumber=0x195\nProductName=X\nProductNumber=0x7\nRevisionNumber=0x8\n",
+            "BaudRate_10=0\n",
+            "BaudRate_125=1\n",
+            "BaudRate_1000=1\n",
+            "LSS_Supported=0\n",
+            "[MandatoryObjects]\nSupportedObjects=2\n1=0x1000\n2=0x1018\n\n",
+            "[OptionalObjects]\nSupportedObjects=3\n1=0x1008\n2=0x1014\n3=0x6401\n\n",
+            "[ManufacturerObjects]\nSupportedObjects=1\n1=0x5000\n\n",
+            "[1014]\nParameterName=COB-ID EMCY\nObjectType=0x7\nDataType=0x0007\nAccessType=rw\nDefaultValue=$NODEID+0x80\nPDOMapping=0\n",
+            "[1018]\nParameterName=Identity object\nObjectType=0x9\nSubNumber=4\n\n[1018sub0]\nParameterName=Highest sub-index supported\n",
+            "[6401]\nParameterName=Limit\nObjectType=0x7\nDataType=0x0004\nAccessType=rw\nDefaultValue=-5\nPDOMapping=1\nLowLimit=-10\nHighLimit=0xA\n",
+            "[1008]\nParameterName=Name\nObjectType=0x7\nDataType=0x0009\nAccessType=const\nDefaultValue=X\n",
+        ] {
+            assert!(eds.contains(needle), "missing {needle:?} in\n{eds}");
+        }
+    }
+
+    #[test]
+    fn json_dump() {
+        let j = table_json(&T[..3]);
+        assert!(j.contains("\"index\": 4116, \"sub\": 0, \"name\": \"COB-ID EMCY\""));
+        assert!(j.contains("\"default\": 128, \"node_id_relative\": true"));
+        assert!(j.contains("\"default\": \"X\""));
+        assert_eq!(json_str("a\"b\\\n"), "\"a\\\"b\\\\\\u000a\"");
+    }
+}
