@@ -13,6 +13,7 @@ pub mod emcy;
 pub mod encoder;
 pub mod frame;
 pub mod guarding;
+pub mod led;
 pub mod heartbeat;
 pub mod lss;
 pub mod nmt;
