@@ -219,9 +219,15 @@ mod tests {
     #[test]
     fn blink_timing_in_virtual_time() {
         // Flashing: 200 ms on, 200 ms off.
-        assert_eq!(trace(LedState::Flashing, false, 0, 800), vec![(true, 200), (false, 200), (true, 200), (false, 200)]);
+        assert_eq!(
+            trace(LedState::Flashing, false, 0, 800),
+            vec![(true, 200), (false, 200), (true, 200), (false, 200)]
+        );
         // Single flash: 200 ms on, 1000 ms off.
-        assert_eq!(trace(LedState::SingleFlash, false, 0, 2400), vec![(true, 200), (false, 1000), (true, 200), (false, 1000)]);
+        assert_eq!(
+            trace(LedState::SingleFlash, false, 0, 2400),
+            vec![(true, 200), (false, 1000), (true, 200), (false, 1000)]
+        );
         // Double flash: 200 on, 200 off, 200 on, 1000 off.
         assert_eq!(
             trace(LedState::DoubleFlash, false, 0, 1600),
