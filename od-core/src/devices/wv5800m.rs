@@ -192,7 +192,6 @@ const fn table(model: Model, turns: Turns) -> [Entry; ENTRIES] {
             .group(COMM)
             .hook(core(CoreHook::PdoCobId)),
         Entry::member(0x1800, 2, "Transmission type", Unsigned8, Rw, 0xFE)
-            .range(0xFD, 0xFF)
             .group(COMM)
             .hook(core(CoreHook::PdoTransmissionType)),
         Entry::member(0x1800, 3, "Inhibit time", Unsigned16, Ro, 0),
@@ -203,7 +202,6 @@ const fn table(model: Model, turns: Turns) -> [Entry; ENTRIES] {
             .group(COMM)
             .hook(core(CoreHook::PdoCobId)),
         Entry::member(0x1801, 2, "Transmission type", Unsigned8, Rw, 0x01)
-            .range(0x01, 0xFC)
             .group(COMM)
             .hook(core(CoreHook::PdoTransmissionType)),
         Entry::member(0x1801, 3, "Inhibit time", Unsigned16, Ro, 0),
