@@ -11,6 +11,7 @@ use std::rc::Rc;
 
 use od_core::led::{LedState, Leds};
 use od_core::node::{BusEvent, Core, Output};
+use od_core::od::{CoreHook, Hook};
 use od_core::{Abort, Bitrate, Frame, Instant, NmtState, Node};
 use proptest::prelude::*;
 use tests_host::bus::{Bus, Station};
@@ -50,7 +51,7 @@ impl Station for Wv {
     fn poll(&mut self, now: Instant) {
         let mut ctl = self.ctl.borrow_mut();
         while let Some((index, sub, v)) = ctl.writes.pop_front() {
-            let r = direct_write(self.inner.node(), index, sub, v, now);
+            let r = write_entry(self.inner.node(), index, sub, v, now);
             ctl.results.push_back(r);
         }
         if self.inner.next_deadline().is_some_and(|t| t <= now) {
@@ -77,6 +78,20 @@ impl Station for Wv {
     fn core(&self) -> &Core {
         Station::core(&self.inner)
     }
+}
+
+/// A write as the SDO server makes it, for the device hooks and the guarding core hook.
+fn write_entry(node: &mut Node<Wv5800m>, index: u16, sub: u8, v: u32, now: Instant) -> Result<(), Abort> {
+    let core = node.split().1;
+    let pos = core.od.find(index, sub)?;
+    if core.od.entry(pos).hook == Hook::Core(CoreHook::Guarding) {
+        let size = core.od.entry(pos).dtype.size();
+        let v = core.od.check_write(pos, &v.to_le_bytes()[..size])?;
+        od_core::guarding::on_write(core, pos, v, now)?;
+        core.od.set(pos, v);
+        return Ok(());
+    }
+    direct_write(node, index, sub, v, now)
 }
 
 struct Rig {
@@ -331,6 +346,23 @@ fn can_errors_emcy_and_red_led() {
     bus.advance(0);
     assert_eq!(leds(&mut bus).green, LedState::SingleFlash);
     assert_eq!(bus.station(0).core().nmt, NmtState::Stopped);
+}
+
+#[test]
+fn guard_event_double_flashes_the_red_led_until_the_next_rtr() {
+    let (mut bus, _) = bus(MT12, 5);
+    write(&mut bus, 0x100C, 0, 100).unwrap();
+    write(&mut bus, 0x100D, 0, 3).unwrap();
+    // Guarding starts with the master's first RTR: 7Fh, toggle 0.
+    bus.send(Frame { rtr: true, ..Frame::std(0x701, &[]) });
+    bus.expect(0x701, &[0x7F]);
+    bus.advance(299);
+    assert_eq!(leds(&mut bus).red, LedState::Off);
+    bus.advance(2);
+    assert_eq!(leds(&mut bus).red, LedState::DoubleFlash);
+    bus.send(Frame { rtr: true, ..Frame::std(0x701, &[]) });
+    bus.expect(0x701, &[0xFF]);
+    assert_eq!(leds(&mut bus).red, LedState::Off);
 }
 
 #[test]
