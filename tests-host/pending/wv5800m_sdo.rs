@@ -101,3 +101,45 @@ fn refusals() {
     sdo_write_abort(&mut bus, 1, 0x5F0A, 1, 1, 0, 0x0609_0032);
     sdo_write_abort(&mut bus, 1, 0x5F0A, 2, 1, 8, 0x0609_0031);
 }
+
+/// A 12-bit multiturn WV5800M whose parameters live in `flash` and whose sensor is `sensor`.
+fn wv_with_flash(flash: tests_host::flash::RamFlash, sensor: &Sensor) -> Bus {
+    use od_core::storage::{identity, ParamFlash, Region};
+    let table = od_core::devices::wv5800m::table_of(MT12);
+    let params = ParamFlash::new(flash, Region { offset: 0, pages: 2 }, identity(table));
+    let mut bus = Bus::new();
+    let sensor = sensor.clone();
+    bus.add_with_flash(params, move |loaded| Sensed::new(Node::boot(Wv5800m::new(MT12), loaded), sensor.clone()));
+    bus.expect(0x701, &[0x00]);
+    bus
+}
+
+#[test]
+fn calibration_survives_a_power_cycle_only_when_saved() {
+    let sensor = Sensor::new(40_000);
+    let mut bus = wv_with_flash(tests_host::flash::RamFlash::new(2), &sensor);
+    bus.advance(1);
+    sdo_write(&mut bus, 1, 0x6003, 0, 4, 510);
+    sdo_write(&mut bus, 1, 0x2002, 0, 1, 1);
+    assert_eq!(sdo_read(&mut bus, 1, 0x6004, 0), 510);
+    // Not saved: a power cycle forgets it.
+    bus.power_cycle(0);
+    bus.expect(0x701, &[0x00]);
+    bus.advance(1);
+    assert_eq!(sdo_read(&mut bus, 1, 0x6004, 0), 40_000);
+    sdo_write(&mut bus, 1, 0x6003, 0, 4, 510);
+    sdo_write(&mut bus, 1, 0x2002, 0, 1, 1);
+    exchange(&mut bus, [0x23, 0x10, 0x10, 0x03, 0x73, 0x61, 0x76, 0x65], [0x60, 0x10, 0x10, 0x03, 0, 0, 0, 0]);
+    bus.power_cycle(0);
+    bus.expect(0x701, &[0x00]);
+    sensor.set(40_100);
+    bus.advance(1);
+    assert_eq!(sdo_read(&mut bus, 1, 0x6004, 0), 610);
+    assert_eq!(sdo_read(&mut bus, 1, 0x6509, 0), 40_000);
+    // Restore the application defaults and reset: the calibration is gone.
+    exchange(&mut bus, [0x23, 0x11, 0x10, 0x03, 0x6C, 0x6F, 0x61, 0x64], [0x60, 0x11, 0x10, 0x03, 0, 0, 0, 0]);
+    bus.send(Frame::std(0x000, &[0x81, 0x01]));
+    bus.expect(0x701, &[0x00]);
+    assert_eq!(sdo_read(&mut bus, 1, 0x6004, 0), 40_100);
+    assert_eq!(sdo_read(&mut bus, 1, 0x6509, 0), 0);
+}

@@ -5,8 +5,8 @@
 //! The manual covers two mechanical versions (WV, WH: 1008h) and four measuring ranges
 //! (1000h, 6002h, 6502h, the 2001h/6003h/6401h/6402h ranges and 650Ah.03). Each of the eight
 //! combinations has its own `static` table, built by one `const fn` so the rows are written
-//! once; [`Wv5800m::new`] inlines, so a firmware built for one variant links one
-//! table.
+//! once. Only [`Wv5800m::new`] (inlined) names them and the device keeps the chosen one, so a
+//! firmware that builds one constant variant lets the linker drop the other seven.
 //!
 //! The position pipeline is [`crate::encoder::rotary`]; the CiA 406 blocks (speed windows, EMCY
 //! edges, alarm words, CAN diagnosis) are shared with the linear encoders. The decisions are in
@@ -337,6 +337,9 @@ const C_BUS_OFF: usize = 7;
 #[derive(Clone, Debug)]
 pub struct Wv5800m {
     variant: Variant,
+    /// The variant's dictionary, chosen once in [`Wv5800m::new`] so that only `new` names the
+    /// eight tables: a firmware that builds one variant links one table.
+    table: &'static [Entry],
     speed: SpeedEstimator,
     /// Last valid raw count (600Ch), `None` before the first sample and while the sensor fails.
     raw: Option<u32>,
@@ -362,6 +365,7 @@ impl Wv5800m {
     pub fn new(variant: Variant) -> Wv5800m {
         Wv5800m {
             variant,
+            table: table_of(variant),
             speed: SpeedEstimator::new(100_000),
             raw: None,
             travel: 0,
@@ -505,7 +509,7 @@ impl Wv5800m {
 
 impl Device for Wv5800m {
     fn table(&self) -> &'static [Entry] {
-        table_of(self.variant)
+        self.table
     }
 
     fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
