@@ -84,10 +84,14 @@ impl Station for Wv {
 fn write_entry(node: &mut Node<Wv5800m>, index: u16, sub: u8, v: u32, now: Instant) -> Result<(), Abort> {
     let core = node.split().1;
     let pos = core.od.find(index, sub)?;
-    if core.od.entry(pos).hook == Hook::Core(CoreHook::Guarding) {
+    let hook = core.od.entry(pos).hook;
+    if let Hook::Core(h @ (CoreHook::Guarding | CoreHook::HeartbeatTime)) = hook {
         let size = core.od.entry(pos).dtype.size();
         let v = core.od.check_write(pos, &v.to_le_bytes()[..size])?;
-        od_core::guarding::on_write(core, pos, v, now)?;
+        match h {
+            CoreHook::Guarding => od_core::guarding::on_write(core, pos, v, now)?,
+            _ => od_core::heartbeat::on_write(core, v, now)?,
+        }
         core.od.set(pos, v);
         return Ok(());
     }
@@ -363,6 +367,32 @@ fn guard_event_double_flashes_the_red_led_until_the_next_rtr() {
     bus.send(Frame { rtr: true, ..Frame::std(0x701, &[]) });
     bus.expect(0x701, &[0xFF]);
     assert_eq!(leds(&mut bus).red, LedState::Off);
+}
+
+#[test]
+fn digest_6_2_heartbeat_and_nmt() {
+    let (mut bus, _) = bus(MT12, 510);
+    assert_eq!(write(&mut bus, 0x1017, 0, 9), Err(Abort::INVALID_VALUE));
+    write(&mut bus, 0x1017, 0, 100).unwrap();
+    let t0 = bus.now();
+    bus.advance(100);
+    let seen = bus.expect(0x701, &[0x7F]);
+    assert_eq!(seen.at, t0.add_millis(100));
+    bus.send(Frame::std(0x000, &[0x01, 0x01]));
+    bus.advance(100);
+    bus.expect(0x701, &[0x05]);
+    bus.send(Frame::std(0x000, &[0x02, 0x00]));
+    bus.advance(100);
+    bus.expect(0x701, &[0x04]);
+    // STOPPED: no PDO on SYNC.
+    bus.send(Frame::std(0x080, &[]));
+    bus.expect_silence();
+    bus.send(Frame::std(0x000, &[0x80, 0x01]));
+    bus.advance(100);
+    bus.expect(0x701, &[0x7F]);
+    // Reset communication: boot-up.
+    bus.send(Frame::std(0x000, &[0x82, 0x01]));
+    bus.expect(0x701, &[0x00]);
 }
 
 #[test]
