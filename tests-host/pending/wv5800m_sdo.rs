@@ -1,6 +1,7 @@
 //! WV5800M SDO scenarios: the manual's printed examples (digest 6.1 E1-E3), the derived vectors
 //! of digest 6.3 and the dictionary's refusals, byte for byte, node-ID 1. Moved to `tests/` when
-//! the SDO server is on this branch.
+//! the SDO server is on this branch. They pass against a throwaway expedited/segmented SDO
+//! server (checked on the wv5800m branch, not committed).
 
 use od_core::devices::wv5800m::{Model, Turns, Variant, Wv5800m};
 use od_core::{Bitrate, Frame, Node};
