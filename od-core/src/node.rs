@@ -74,6 +74,47 @@ pub enum ResetKind {
     Communication,
 }
 
+/// What the CAN controller reports besides frames. The shell passes each change it sees to
+/// [`Node::on_bus_event`]; the device turns them into its diagnosis objects and EMCYs (5000h,
+/// 1002h, 8120h, 8140h as its manual says).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum BusEvent {
+    /// The controller entered the error-passive state (an error counter above 127).
+    ErrorPassive,
+    /// The controller is error active again (both error counters back below 128).
+    ErrorActive,
+    /// The controller went bus-off (transmit error counter above 255); it sends nothing.
+    BusOff,
+    /// The controller recovered from bus-off (128 × 11 recessive bits) and is error active.
+    BusOffRecovered,
+    /// A received frame was lost because the receive FIFO was full.
+    RxOverrun,
+    /// The controller detected a protocol error of this kind (its last error code).
+    ProtocolError(CanError),
+    /// The controller's current error counters (for 1002h), reported when they change.
+    ErrorCounters {
+        /// Receive error counter.
+        rx: u8,
+        /// Transmit error counter.
+        tx: u8,
+    },
+}
+
+/// The kind of a CAN protocol error (ISO 11898-1), as controllers report it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum CanError {
+    /// Bit stuffing violated.
+    Stuff,
+    /// A fixed-form field held an illegal bit.
+    Form,
+    /// No node acknowledged a transmitted frame.
+    Acknowledge,
+    /// A transmitted bit read back different (recessive or dominant).
+    Bit,
+    /// The received CRC did not match.
+    Crc,
+}
+
 /// The node's state that every service and the device may touch: the dictionary, the NMT
 /// state, the active node-ID and bit rate, and the output queue.
 pub struct Core {
@@ -164,6 +205,11 @@ pub trait Device {
     /// When the device next needs [`Device::poll`].
     fn next_deadline(&self) -> Option<Instant> {
         None
+    }
+
+    /// The CAN controller reported `event` (see [`Node::on_bus_event`]).
+    fn on_bus_event(&mut self, core: &mut Core, event: BusEvent, now: Instant) {
+        let _ = (core, event, now);
     }
 
     /// Does the device have an LSS slave (CiA 305)? The SGH10, SGH50 and WV5800M do; the
@@ -305,6 +351,13 @@ impl<D: Device> Node<D> {
                 PdoEvent::RpdoRtr(n) => self.device.on_rpdo_rtr(&mut self.core, n, now),
             },
         }
+    }
+
+    /// The CAN controller reported `event`: the device keeps its diagnosis (5000h, 1002h) and
+    /// raises or clears its EMCYs. EMCYs raised while the node cannot send (bus-off, STOPPED)
+    /// follow the EMCY producer's rules.
+    pub fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.device.on_bus_event(&mut self.core, event, now);
     }
 
     /// Runs the timers due at `now`.

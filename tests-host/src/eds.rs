@@ -51,7 +51,11 @@ pub struct EdsInfo {
 /// The devices whose EDS is checked in under `eds/`: (info, dictionary).
 pub fn devices() -> Vec<(EdsInfo, &'static [Entry])> {
     let sgh10 = TableOnly(od_core::devices::sgh10::TABLE);
-    vec![(
+    // The redundant version's second encoder differs only in the 5F0Ah.01 default (2): one
+    // file serves both, as configurators take the node-ID from the network.
+    let sgh50 = TableOnly(od_core::devices::sgh50::TABLE);
+    vec![
+        (
         EdsInfo {
             file_name: "SGH10.eds",
             description: "SIKO SGH10 / SGH10L absolute wire-actuated encoder, CANopen (CiA 301, CiA 406, CiA 305)",
@@ -66,6 +70,22 @@ pub fn devices() -> Vec<(EdsInfo, &'static [Entry])> {
             lss: sgh10.has_lss(),
         },
         sgh10.table(),
+    ),
+    (
+        EdsInfo {
+            file_name: "SGH50.eds",
+            description: "SIKO SGH50 absolute wire-actuated encoder, single or redundant, CANopen (CiA 301, CiA 406, CiA 305)",
+            file_version: 1,
+            file_revision: 0,
+            creation_date: "11-24-2026",
+            creation_time: "12:00PM",
+            created_by: "SIKO GmbH",
+            vendor_name: "SIKO GmbH",
+            order_code: "SGH50",
+            bitrates: rates(&sgh50),
+            lss: sgh50.has_lss(),
+        },
+        sgh50.table(),
     )]
 }
 

@@ -3,6 +3,7 @@
 
 pub mod bus;
 pub mod eds;
+pub mod encoder;
 pub mod flash;
 
 use od_core::node::Device;

@@ -1,3 +1,4 @@
 //! The devices' dictionaries and behaviour, one module per product.
 
 pub mod sgh10;
+pub mod sgh50;

@@ -2,20 +2,19 @@
 //! (SIKO art. no. 89013, status 098/22), every row, with the manual's types, access rights,
 //! defaults and limits. 6003h and 6004h are listed in the manual's overview as "not used" and
 //! are therefore absent (an SDO access gets 06020000h).
+//!
+//! The behaviour is the linear CiA 406 encoder of [`crate::encoder::linear`] with the SGH10's
+//! measuring range and its EMCY FF12h "speed error".
 
+use crate::abort::Abort;
+use crate::encoder::linear::{Linear, LinearSpec};
+use crate::encoder::{Encoder, SensorFault};
+use crate::node::{BusEvent, Core, Device, ResetKind};
 use crate::od::{Access::*, CoreHook, DataType::*, Entry, Group, Hook};
+use crate::time::Instant;
 
-/// Device-specific write hooks of the SGH10 (`Hook::Device(n)`).
-pub mod hooks {
-    /// 6000h operating parameters: counting direction.
-    pub const OPERATING_PARAMETERS: u8 = 1;
-    /// 6010h.01: calibrate to the written value.
-    pub const CALIBRATE: u8 = 2;
-    /// 6200h cycle timer: the same value as 1800h.05.
-    pub const CYCLE_TIMER: u8 = 3;
-    /// 6401h/6402h work-area limits.
-    pub const WORK_AREA: u8 = 4;
-}
+/// Device-specific write hooks of the SGH10 (`Hook::Device(n)`): the linear encoders' ones.
+pub use crate::encoder::linear::hooks;
 
 const COMM: Group = Group::Comm;
 const APP: Group = Group::App;
@@ -34,7 +33,7 @@ pub const DEFAULT_BITRATE_CODE: u8 = 5;
 
 /// The SGH10 dictionary, sorted by (index, sub).
 pub static TABLE: &[Entry] = &[
-    Entry::var(0x1000, "Device type", Unsigned32, Const, 0x000A_0196),
+    Entry::var(0x1000, "Device type", Unsigned32, Ro, 0x000A_0196),
     Entry::var(0x1001, "Error register", Unsigned8, Ro, 0),
     Entry::var(0x1002, "Manufacturer status register", Unsigned32, Ro, 0),
     Entry::array(0x1003, "Pre-defined error field", 8, Rw)
@@ -87,7 +86,7 @@ pub static TABLE: &[Entry] = &[
         .group(COMM)
         .hook(core(CoreHook::PdoTransmissionType)),
     Entry::member(0x1800, 3, "Inhibit time", Unsigned16, Ro, 0),
-    Entry::member(0x1800, 5, "Event timer", Unsigned16, Rw, 0).group(COMM).hook(core(CoreHook::PdoEventTimer)),
+    Entry::member(0x1800, 5, "Event timer", Unsigned16, Rw, 0).group(COMM).hook(dev(hooks::CYCLE_TIMER)),
     Entry::record(0x1801, "TPDO2 communication parameter", 5, Const),
     Entry::member(0x1801, 1, "COB-ID used by TPDO2", Unsigned32, Rw, 0)
         .plus_node_id(0x280)
@@ -170,6 +169,80 @@ pub static TABLE: &[Entry] = &[
     Entry::array(0x650C, "Offset values for multi-sensor devices", 1, Ro),
     Entry::member(0x650C, 1, "Offset value channel 1", Integer32, Ro, 0).group(APP),
 ];
+
+/// The SGH10's measuring range, speed error and timing.
+pub const SPEC: LinearSpec = LinearSpec {
+    // 6002h: 10239 steps of 0.1 mm; the calibration range is ±10239.
+    max_steps: 10239,
+    speed_error: true,
+    integration_us: 100_000,
+    sample_period_us: 1_000,
+};
+
+/// The product variants of the manual; it describes no difference in behaviour or dictionary.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Variant {
+    /// SGH10.
+    Sgh10,
+    /// SGH10L.
+    Sgh10L,
+}
+
+/// An SGH10 / SGH10L.
+#[derive(Clone, Debug)]
+pub struct Sgh10 {
+    variant: Variant,
+    linear: Linear,
+}
+
+impl Sgh10 {
+    /// A device of `variant`, before its first sensor sample.
+    pub const fn new(variant: Variant) -> Sgh10 {
+        Sgh10 { variant, linear: Linear::new(SPEC) }
+    }
+
+    /// The variant.
+    pub const fn variant(&self) -> Variant {
+        self.variant
+    }
+
+    /// The shared linear-encoder state.
+    pub const fn linear(&self) -> &Linear {
+        &self.linear
+    }
+}
+
+impl Device for Sgh10 {
+    fn table(&self) -> &'static [Entry] {
+        TABLE
+    }
+
+    fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        self.linear.on_write(core, pos, value, now)
+    }
+
+    fn on_reset(&mut self, core: &mut Core, kind: ResetKind, now: Instant) {
+        self.linear.on_reset(core, kind, now);
+    }
+
+    fn poll(&mut self, core: &mut Core, now: Instant) {
+        self.linear.poll(core, now);
+    }
+
+    fn on_bus_event(&mut self, core: &mut Core, event: BusEvent, now: Instant) {
+        self.linear.on_bus_event(core, event, now);
+    }
+}
+
+impl Encoder for Sgh10 {
+    fn on_sample(&mut self, core: &mut Core, raw: Result<u32, SensorFault>, now: Instant) {
+        self.linear.on_sample(core, raw, now);
+    }
+
+    fn sample_period_us(&self) -> u32 {
+        SPEC.sample_period_us
+    }
+}
 
 #[cfg(test)]
 mod tests {

@@ -1,0 +1,334 @@
+//! SGH50 absolute wire-actuated encoder, single or redundant: the object dictionary of its
+//! manual (SIKO art. no. 89927, change version 020/22), every row, with the manual's types,
+//! access rights, defaults and limits. 6003h and 6004h are "not used" and absent (06020000h);
+//! 1800h/1801h sub 4 and 6 are "not used" and absent (06090011h).
+//!
+//! The redundant version is two encoders in one housing, each a complete node of this
+//! firmware: factory node-IDs 1 and 2 and their own serial numbers, which is what LSS tells
+//! them apart by (vendor, product code and revision are equal). Each encoder's factory default
+//! of 5F0Ah.01 is its shipping node-ID, so a 1011h restore never puts both on node 1.
+//!
+//! The behaviour is the linear CiA 406 encoder of [`crate::encoder::linear`] with the SGH50's
+//! measuring range; the SGH50 manual lists no speed EMCY.
+
+use crate::abort::Abort;
+use crate::encoder::linear::{Linear, LinearSpec};
+use crate::encoder::{Encoder, SensorFault};
+use crate::node::{BusEvent, Core, Device, ResetKind};
+use crate::od::{Access::*, CoreHook, DataType::*, Entry, Group, Hook};
+use crate::time::Instant;
+
+/// Device-specific write hooks of the SGH50 (`Hook::Device(n)`): the linear encoders' ones.
+pub use crate::encoder::linear::hooks;
+
+const COMM: Group = Group::Comm;
+const APP: Group = Group::App;
+const MANUF: Group = Group::Manuf;
+const fn core(h: CoreHook) -> Hook {
+    Hook::Core(h)
+}
+const fn dev(h: u8) -> Hook {
+    Hook::Device(h)
+}
+
+/// Default node-ID ex works of the single version and of the redundant version's first
+/// encoder.
+pub const DEFAULT_NODE_ID: u8 = 1;
+/// Default node-ID ex works of the redundant version's second encoder.
+pub const SECOND_NODE_ID: u8 = 2;
+/// Default 5F0Ah.02 bit-rate code (5 = 500 kbit/s).
+pub const DEFAULT_BITRATE_CODE: u8 = 5;
+/// Entries in the SGH50 dictionary.
+pub const ENTRIES: usize = 97;
+
+/// The SGH50 dictionary with `node_id` as the factory default of 5F0Ah.01.
+const fn table(node_id: u8) -> [Entry; ENTRIES] {
+    [
+        Entry::var(0x1000, "Device type", Unsigned32, Ro, 0x000A_0196),
+        Entry::var(0x1001, "Error register", Unsigned8, Ro, 0),
+        Entry::var(0x1002, "Manufacturer status register", Unsigned32, Ro, 0),
+        Entry::array(0x1003, "Pre-defined error field", 8, Rw)
+            .named("Number of errors")
+            .with_default(0)
+            .group(COMM)
+            .hook(core(CoreHook::ErrorHistory)),
+        Entry::member(0x1003, 1, "Standard error field 1", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 2, "Standard error field 2", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 3, "Standard error field 3", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 4, "Standard error field 4", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 5, "Standard error field 5", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 6, "Standard error field 6", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 7, "Standard error field 7", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 8, "Standard error field 8", Unsigned32, Ro, 0).group(COMM),
+        Entry::var(0x1005, "COB-ID SYNC message", Unsigned32, Rw, 0x80).group(COMM).hook(core(CoreHook::SyncCobId)),
+        Entry::string(0x1008, "Manufacturer device name", "SGH50"),
+        Entry::string(0x1009, "Manufacturer hardware version", "V100"),
+        Entry::string(0x100A, "Manufacturer software version", "V100"),
+        Entry::var(0x100C, "Guard time", Unsigned16, Rw, 0).group(COMM).hook(core(CoreHook::Guarding)),
+        Entry::var(0x100D, "Life time factor", Unsigned8, Rw, 0).group(COMM).hook(core(CoreHook::Guarding)),
+        Entry::array(0x1010, "Store parameters", 4, Const),
+        Entry::member(0x1010, 1, "Save all parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
+        Entry::member(0x1010, 2, "Save communication parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
+        Entry::member(0x1010, 3, "Save application parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
+        Entry::member(0x1010, 4, "Save manufacturer parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
+        Entry::array(0x1011, "Restore default parameters", 4, Const),
+        Entry::member(0x1011, 1, "Restore all default parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Restore)),
+        Entry::member(0x1011, 2, "Restore communication default parameters", Unsigned32, Rw, 1)
+            .hook(core(CoreHook::Restore)),
+        Entry::member(0x1011, 3, "Restore application default parameters", Unsigned32, Rw, 1)
+            .hook(core(CoreHook::Restore)),
+        Entry::member(0x1011, 4, "Restore manufacturer default parameters", Unsigned32, Rw, 1)
+            .hook(core(CoreHook::Restore)),
+        Entry::var(0x1014, "COB-ID EMCY", Unsigned32, Rw, 0)
+            .plus_node_id(0x80)
+            .group(COMM)
+            .hook(core(CoreHook::EmcyCobId)),
+        Entry::var(0x1017, "Producer heartbeat time", Unsigned16, Rw, 0)
+            .group(COMM)
+            .hook(core(CoreHook::HeartbeatTime)),
+        Entry::record(0x1018, "Identity object", 4, Const),
+        Entry::member(0x1018, 1, "Vendor-ID", Unsigned32, Ro, 0x0000_0195),
+        Entry::member(0x1018, 2, "Product code", Unsigned32, Ro, 0xFFFF_FFFF),
+        Entry::member(0x1018, 3, "Revision number", Unsigned32, Ro, 0xFFFF_FFFF),
+        Entry::member(0x1018, 4, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
+        Entry::record(0x1200, "SDO server parameter", 2, Const),
+        Entry::member(0x1200, 1, "COB-ID client to server (rx)", Unsigned32, Ro, 0).plus_node_id(0x600),
+        Entry::member(0x1200, 2, "COB-ID server to client (tx)", Unsigned32, Ro, 0).plus_node_id(0x580),
+        Entry::record(0x1800, "TPDO1 communication parameter", 5, Const),
+        Entry::member(0x1800, 1, "COB-ID used by TPDO1", Unsigned32, Rw, 0)
+            .plus_node_id(0x180)
+            .group(COMM)
+            .hook(core(CoreHook::PdoCobId)),
+        Entry::member(0x1800, 2, "Transmission type", Unsigned8, Rw, 0xFE)
+            .range(0xFD, 0xFF)
+            .group(COMM)
+            .hook(core(CoreHook::PdoTransmissionType)),
+        Entry::member(0x1800, 3, "Inhibit time", Unsigned16, Ro, 0),
+        Entry::member(0x1800, 5, "Event timer", Unsigned16, Rw, 0).group(COMM).hook(dev(hooks::CYCLE_TIMER)),
+        Entry::record(0x1801, "TPDO2 communication parameter", 5, Const),
+        Entry::member(0x1801, 1, "COB-ID used by TPDO2", Unsigned32, Rw, 0)
+            .plus_node_id(0x280)
+            .group(COMM)
+            .hook(core(CoreHook::PdoCobId)),
+        Entry::member(0x1801, 2, "Transmission type", Unsigned8, Rw, 0x01)
+            .group(COMM)
+            .hook(core(CoreHook::PdoTransmissionType)),
+        Entry::member(0x1801, 3, "Inhibit time", Unsigned16, Ro, 0),
+        Entry::member(0x1801, 5, "Event timer", Unsigned16, Ro, 0),
+        Entry::record(0x1A00, "TPDO1 mapping parameter", 2, Const).named("Number of mapped objects"),
+        Entry::member(0x1A00, 1, "Mapped object 1", Unsigned32, Ro, 0x6020_0120),
+        Entry::member(0x1A00, 2, "Mapped object 2", Unsigned32, Ro, 0x6030_0110),
+        Entry::record(0x1A01, "TPDO2 mapping parameter", 2, Const).named("Number of mapped objects"),
+        Entry::member(0x1A01, 1, "Mapped object 1", Unsigned32, Ro, 0x6020_0120),
+        Entry::member(0x1A01, 2, "Mapped object 2", Unsigned32, Ro, 0x6030_0110),
+        Entry::var(0x5000, "Diagnose CAN bus error", Unsigned32, Ro, 0),
+        Entry::var(0x5F09, "Bus terminal", Unsigned8, Rw, 0).range(0, 1).group(MANUF),
+        Entry::record(0x5F0A, "Node-ID and baud rate", 2, Const),
+        Entry::member(0x5F0A, 1, "Node-ID", Unsigned8, Rw, node_id as u32)
+            .range(1, 127)
+            .group(MANUF)
+            .hook(core(CoreHook::PendingNodeId)),
+        Entry::member(0x5F0A, 2, "Baud rate", Unsigned8, Rw, DEFAULT_BITRATE_CODE as u32)
+            .range(1, 7)
+            .group(MANUF)
+            .hook(core(CoreHook::PendingBitrate)),
+        Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, 0x0004)
+            .group(APP)
+            .hook(dev(hooks::OPERATING_PARAMETERS)),
+        Entry::var(0x6002, "Total number of measuring steps", Unsigned32, Rw, 73840).group(APP),
+        Entry::record(0x6005, "Linear encoder measuring step settings", 2, Ro),
+        Entry::member(0x6005, 1, "Position step setting", Unsigned32, Rw, 100_000).range(100_000, 100_000).group(APP),
+        Entry::member(0x6005, 2, "Speed step setting", Unsigned32, Rw, 100).range(100, 100).group(APP),
+        Entry::array(0x6010, "Preset value for multi-sensor devices", 1, Ro),
+        Entry::member(0x6010, 1, "Calibration value", Integer32, Rw, 0)
+            .range(-73839, 73839)
+            .pdo()
+            .hook(dev(hooks::CALIBRATE)),
+        Entry::array(0x6020, "Position value for multi-sensor devices", 1, Ro),
+        Entry::member(0x6020, 1, "Position value", Integer32, Ro, 0).pdo(),
+        Entry::array(0x6030, "Speed value", 1, Ro),
+        Entry::member(0x6030, 1, "Speed value", Integer16, Ro, 0).pdo(),
+        Entry::var(0x6200, "Cyclic timer", Unsigned16, Rw, 0).group(APP).hook(dev(hooks::CYCLE_TIMER)),
+        Entry::array(0x6400, "Area state register", 2, Ro),
+        Entry::member(0x6400, 1, "Work area state channel 1", Unsigned8, Ro, 0),
+        Entry::member(0x6400, 2, "Work area state channel 2", Unsigned8, Ro, 0),
+        Entry::array(0x6401, "Work area low limit", 2, Ro),
+        Entry::member(0x6401, 1, "Work area low limit channel 1", Integer32, Rw, -147678i32 as u32)
+            .range(-147678, 221517)
+            .group(APP)
+            .hook(dev(hooks::WORK_AREA)),
+        Entry::member(0x6401, 2, "Work area low limit channel 2", Integer32, Rw, -147678i32 as u32)
+            .range(-147678, 221517)
+            .group(APP)
+            .hook(dev(hooks::WORK_AREA)),
+        Entry::array(0x6402, "Work area high limit", 2, Ro),
+        Entry::member(0x6402, 1, "Work area high limit channel 1", Integer32, Rw, 221517)
+            .range(-147678, 221517)
+            .group(APP)
+            .hook(dev(hooks::WORK_AREA)),
+        Entry::member(0x6402, 2, "Work area high limit channel 2", Integer32, Rw, 221517)
+            .range(-147678, 221517)
+            .group(APP)
+            .hook(dev(hooks::WORK_AREA)),
+        Entry::var(0x6500, "Operating status", Unsigned16, Ro, 0x0004),
+        Entry::var(0x6501, "Single-turn resolution", Unsigned32, Ro, 100_000),
+        Entry::var(0x6502, "Number of distinguishable revolutions", Unsigned16, Ro, 1),
+        Entry::var(0x6503, "Alarms", Unsigned16, Ro, 0),
+        Entry::var(0x6504, "Supported alarms", Unsigned16, Ro, 0x3001),
+        Entry::var(0x6505, "Warnings", Unsigned16, Ro, 0),
+        Entry::var(0x6506, "Supported warnings", Unsigned16, Ro, 0),
+        Entry::var(0x6507, "Profile and software version", Unsigned32, Ro, 0x0100_0302),
+        Entry::var(0x6508, "Operating time", Unsigned32, Ro, 0xFFFF_FFFF),
+        Entry::var(0x6509, "Offset value", Integer32, Ro, 0).group(APP),
+        Entry::array(0x650A, "Module identification", 3, Ro),
+        Entry::member(0x650A, 1, "Manufacturer offset value", Integer32, Ro, 0),
+        Entry::member(0x650A, 2, "Manufacturer minimum position value", Integer32, Ro, -147678i32 as u32),
+        Entry::member(0x650A, 3, "Manufacturer maximum position value", Integer32, Ro, 221517),
+        Entry::var(0x650B, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
+        Entry::array(0x650C, "Offset values for multi-sensor devices", 1, Ro),
+        Entry::member(0x650C, 1, "Offset value channel 1", Integer32, Ro, 0).group(APP),
+    ]
+}
+
+static TABLE_1: [Entry; ENTRIES] = table(DEFAULT_NODE_ID);
+static TABLE_2: [Entry; ENTRIES] = table(SECOND_NODE_ID);
+
+/// The SGH50 dictionary (single version, and the redundant version's first encoder), sorted by
+/// (index, sub).
+pub static TABLE: &[Entry] = &TABLE_1;
+/// The dictionary of the redundant version's second encoder: 5F0Ah.01 defaults to 2.
+pub static TABLE_SECOND: &[Entry] = &TABLE_2;
+
+/// The SGH50's measuring range and timing.
+pub const SPEC: LinearSpec = LinearSpec {
+    // 6002h: 73840 steps of 0.1 mm; the calibration range is ±73839.
+    max_steps: 73839,
+    speed_error: false,
+    integration_us: 100_000,
+    sample_period_us: 1_000,
+};
+
+/// Which of the redundant version's two encoders.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Channel {
+    /// The first encoder (node-ID 1 ex works).
+    First,
+    /// The second encoder (node-ID 2 ex works).
+    Second,
+}
+
+/// The product variants of the manual.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Variant {
+    /// The non-redundant version: one encoder.
+    Single,
+    /// One of the redundant version's two encoders (each is a node of its own).
+    Redundant(Channel),
+}
+
+impl Variant {
+    /// The node-ID the variant ships with.
+    pub const fn default_node_id(self) -> u8 {
+        match self {
+            Variant::Redundant(Channel::Second) => SECOND_NODE_ID,
+            _ => DEFAULT_NODE_ID,
+        }
+    }
+}
+
+/// An SGH50 encoder (one node).
+#[derive(Clone, Debug)]
+pub struct Sgh50 {
+    variant: Variant,
+    linear: Linear,
+}
+
+impl Sgh50 {
+    /// An encoder of `variant`, before its first sensor sample.
+    pub const fn new(variant: Variant) -> Sgh50 {
+        Sgh50 { variant, linear: Linear::new(SPEC) }
+    }
+
+    /// The variant.
+    pub const fn variant(&self) -> Variant {
+        self.variant
+    }
+
+    /// The shared linear-encoder state.
+    pub const fn linear(&self) -> &Linear {
+        &self.linear
+    }
+}
+
+impl Device for Sgh50 {
+    fn table(&self) -> &'static [Entry] {
+        match self.variant {
+            Variant::Redundant(Channel::Second) => TABLE_SECOND,
+            _ => TABLE,
+        }
+    }
+
+    fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        self.linear.on_write(core, pos, value, now)
+    }
+
+    fn on_reset(&mut self, core: &mut Core, kind: ResetKind, now: Instant) {
+        self.linear.on_reset(core, kind, now);
+    }
+
+    fn poll(&mut self, core: &mut Core, now: Instant) {
+        self.linear.poll(core, now);
+    }
+
+    fn on_bus_event(&mut self, core: &mut Core, event: BusEvent, now: Instant) {
+        self.linear.on_bus_event(core, event, now);
+    }
+}
+
+impl Encoder for Sgh50 {
+    fn on_sample(&mut self, core: &mut Core, raw: Result<u32, SensorFault>, now: Instant) {
+        self.linear.on_sample(core, raw, now);
+    }
+
+    fn sample_period_us(&self) -> u32 {
+        SPEC.sample_period_us
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::od::Od;
+
+    #[test]
+    fn every_manual_row_is_declared() {
+        // 103 rows in the digest's table; 6003h, 6004h and 1800h/1801h sub 4 and 6 are "not used".
+        assert_eq!(TABLE.len(), 97);
+        let od = Od::new(TABLE, DEFAULT_NODE_ID);
+        assert_eq!(od.value(0x1000, 0), Some(0x000A_0196));
+        assert_eq!(od.value(0x6002, 0), Some(73840));
+        assert_eq!(od.value(0x6401, 2), Some(-147678i32 as u32));
+        assert_eq!(od.value(0x6402, 1), Some(221517));
+        assert_eq!(od.value(0x650A, 2), Some(0xFFFD_BF22));
+        assert_eq!(od.value(0x650A, 3), Some(0x0003_614D));
+        assert_eq!(od.value(0x5F09, 0), Some(0));
+        assert_eq!(od.value(0x5F0A, 1), Some(1));
+        assert!(od.pos(0x6003, 0).is_none() && od.pos(0x6004, 0).is_none());
+        assert!(od.pos(0x1800, 4).is_none() && od.pos(0x1801, 6).is_none());
+        let e = od.entry(od.pos(0x6010, 1).unwrap());
+        assert_eq!(e.limits, Some((-73839, 73839)));
+    }
+
+    #[test]
+    fn the_second_encoder_differs_only_in_its_node_id_default() {
+        for (a, b) in TABLE.iter().zip(TABLE_SECOND) {
+            if (a.index, a.sub) == (0x5F0A, 1) {
+                assert_eq!((a.default_value(0), b.default_value(0)), (1, 2));
+            } else {
+                assert_eq!(a, b);
+            }
+        }
+        let od = Od::new(TABLE_SECOND, SECOND_NODE_ID);
+        assert_eq!(od.value(0x1800, 1), Some(0x182));
+    }
+}
