@@ -6,6 +6,7 @@ pub mod eds;
 pub mod encoder;
 pub mod flash;
 pub mod segment;
+pub mod sim;
 
 use od_core::node::Device;
 use od_core::od::Entry;

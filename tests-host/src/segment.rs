@@ -176,6 +176,11 @@ impl Segment {
         self.nodes[n].station.as_mut()
     }
 
+    /// Node `n`'s shared state.
+    pub fn core(&self, n: usize) -> &Core {
+        self.nodes[n].station.core()
+    }
+
     /// The bit rate node `n` runs at.
     pub fn bitrate(&self, n: usize) -> Bitrate {
         self.nodes[n].bitrate
