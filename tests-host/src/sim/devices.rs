@@ -12,7 +12,7 @@ use od_core::od::{CoreHook, Entry, Hook};
 use od_core::storage::{identity, Image, Loaded, ParamFlash, Record, Region};
 use od_core::{Frame, Instant};
 
-use super::options::{DeviceSpec, Kind, Motion};
+use super::options::{DeviceSpec, Kind, Motion, UNCONFIGURED};
 use crate::flash::{FileFlash, RamFlash};
 use crate::segment::{Boot, NodeFlash, Station};
 
@@ -105,7 +105,14 @@ impl<'a> Registry<'a> {
         let mut plans = Vec::new();
         for (n, channel) in plan(spec)?.into_iter().enumerate() {
             let file = format!("{}-{}-{}{}.flash", spec.bus, spec.kind.name(), ordinal, channel.suffix);
-            let node = spec.node.map(|id| id.saturating_add(n as u8));
+            let node = match spec.node {
+                Some(UNCONFIGURED) => Some(UNCONFIGURED),
+                Some(id) if usize::from(id) + n > 127 => {
+                    return Err(format!("--device {}: node {id}+{n} is beyond 127", spec.kind.name()))
+                }
+                Some(id) => Some(id + n as u8),
+                None => None,
+            };
             let params = self.params(&file, channel.table, node, spec.serial)?;
             plans.push(NodePlan { label: channel.label, bus: spec.bus.clone(), params, boot: channel.boot });
         }

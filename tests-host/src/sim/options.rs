@@ -4,6 +4,9 @@ use std::path::PathBuf;
 
 use od_core::Bitrate;
 
+/// `node=unconfigured` (or 255): the node has no node-ID and waits for LSS.
+pub const UNCONFIGURED: u8 = 0xFF;
+
 /// `--help`.
 pub const HELP: &str = "\
 sim: the SIKO devices on simulated CAN buses, served over socketcand (TCP, rawmode)
@@ -16,8 +19,8 @@ node-IDs on can0 (500 kbit/s), encoders' sensors moving.
 Options:
   --listen HOST:PORT      where socketcand clients connect (default 127.0.0.1:29536)
   --device KIND[:k=v,..]  add a device (repeatable). KIND: sgh10, sgh50, wv5800m, ap10t, wv58mr
-                          keys: bus=can0|can1|..  node=N (CANopen node-ID, as if configured
-                          and stored before)  address=N (J1939)  serial=N  variant=NAME
+                          keys: bus=can0|can1|..  node=N (CANopen node-ID 1..127, as if
+                          configured and stored before; node=unconfigured: LSS only)  address=N (J1939)  serial=N  variant=NAME
                           redundant=true (SGH50, WV58MR: both channels)
                           position=RAW (fixed sensor value) | motion=ramp:STEPS_PER_S |
                           motion=sine:AMPL:PERIOD_S
@@ -84,7 +87,8 @@ pub struct DeviceSpec {
     pub kind: Kind,
     /// The bus it is on.
     pub bus: String,
-    /// CANopen node-ID configured before (None: what its flash holds, or ex works).
+    /// CANopen node-ID configured before (None: what its flash holds, or ex works;
+    /// [`UNCONFIGURED`]: none, the node answers LSS only).
     pub node: Option<u8>,
     /// J1939 address.
     pub address: Option<u8>,
@@ -235,9 +239,9 @@ pub fn parse_device(text: &str) -> Result<DeviceSpec, String> {
                 d.bus = v.into();
             }
             "node" => {
-                let n: u8 = number(k, v)?;
-                if !(1..=127).contains(&n) {
-                    return Err(format!("node={v}: a CANopen node-ID is 1..127"));
+                let n: u8 = if v == "unconfigured" { UNCONFIGURED } else { number(k, v)? };
+                if !(1..=127).contains(&n) && n != UNCONFIGURED {
+                    return Err(format!("node={v}: a CANopen node-ID is 1..127 (or unconfigured)"));
                 }
                 d.node = Some(n);
             }

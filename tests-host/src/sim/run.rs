@@ -266,7 +266,9 @@ fn serve(id: usize, stream: TcpStream, names: &[String], tx: Sender<Event>) {
     let (out, out_rx) = channel::<String>();
     thread::spawn(move || {
         for msg in out_rx {
-            if writer.write_all(msg.as_bytes()).is_err() {
+            if msg.is_empty() {
+                thread::sleep(Duration::from_millis(50));
+            } else if writer.write_all(msg.as_bytes()).is_err() {
                 break;
             }
         }
@@ -303,8 +305,9 @@ fn serve(id: usize, stream: TcpStream, names: &[String], tx: Sender<Event>) {
                         raw = true;
                         let _ = out.send(sc::OK.into());
                         // python-can reads the `< ok >` with one recv and compares it whole:
-                        // frames start a moment later so they do not arrive glued to it.
-                        thread::sleep(Duration::from_millis(30));
+                        // the writer holds frames back a moment so they do not arrive glued
+                        // to it (none is lost: they wait in the channel).
+                        let _ = out.send(String::new());
                         if tx.send(Event::Join { id, bus: b, out: out.clone() }).is_err() {
                             return;
                         }
