@@ -5,4 +5,6 @@ pub mod decode;
 pub mod devices;
 pub mod options;
 pub mod run;
+#[cfg(target_os = "linux")]
+pub mod socketcan;
 pub mod socketcand;

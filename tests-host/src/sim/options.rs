@@ -28,6 +28,8 @@ Options:
                           DIR is a power cycle (default: flash in RAM, lost at exit)
   --bitrate BUS=RATE      bus bit rate in kbit/s (can0 defaults to 500, can1 to 250);
                           a node set to another rate neither sees nor sends frames
+  --socketcan BUS=IFACE   also bridge BUS to a SocketCAN interface (vcan0, can0 ...), where
+                          the kernel has CAN support
   --quiet                 no live view
   --trace FILE            also write every frame to FILE as a candump log
   -h, --help              this text
@@ -113,6 +115,8 @@ pub struct Options {
     pub state_dir: Option<PathBuf>,
     /// `--bitrate`s.
     pub bitrates: Vec<(String, Bitrate)>,
+    /// `--socketcan BUS=IFACE`s.
+    pub socketcan: Vec<(String, String)>,
     /// `--quiet`.
     pub quiet: bool,
     /// `--trace`.
@@ -132,6 +136,7 @@ impl Options {
             devices: Vec::new(),
             state_dir: None,
             bitrates: Vec::new(),
+            socketcan: Vec::new(),
             quiet: false,
             trace: None,
             help: false,
@@ -163,6 +168,15 @@ impl Options {
                     let (bus, rate) = v.split_once('=').ok_or(format!("--bitrate {v}: expected BUS=RATE"))?;
                     check_bus(bus)?;
                     o.bitrates.push((bus.to_string(), parse_rate(rate)?));
+                }
+                "--socketcan" => {
+                    let v = value(name)?;
+                    let (bus, iface) = v.split_once('=').ok_or(format!("--socketcan {v}: expected BUS=IFACE"))?;
+                    check_bus(bus)?;
+                    if iface.is_empty() || iface.len() > 15 {
+                        return Err(format!("--socketcan {v}: bad interface name"));
+                    }
+                    o.socketcan.push((bus.to_string(), iface.to_string()));
                 }
                 _ => return Err(format!("unknown option {arg} (see --help)")),
             }

@@ -19,6 +19,8 @@ use od_core::{Bitrate, Frame, Instant};
 use super::decode::{describe, Known};
 use super::devices::{bench, Registry};
 use super::options::Options;
+#[cfg(target_os = "linux")]
+use super::socketcan::CanSocket;
 use super::socketcand::{self as sc, Request};
 use crate::segment::Segment;
 
@@ -32,8 +34,8 @@ struct SimBus {
 
 /// What client threads tell the main loop.
 enum Event {
-    /// Client `id` receives the frames of `bus` through `out` from now on.
-    Join { id: usize, bus: usize, out: Sender<String> },
+    /// Client `id` (shown as `label`) receives the frames of `bus` through `out` from now on.
+    Join { id: usize, bus: usize, out: Sink, label: String },
     /// Client `id` sent `frame` on `bus`.
     Frame { id: usize, bus: usize, frame: Frame },
     /// Client `id` is gone.
@@ -76,6 +78,10 @@ pub fn run(opts: &Options) -> Result<(), String> {
     }
     let names: Arc<Vec<String>> = Arc::new(buses.iter().map(|b| b.name.clone()).collect());
     let (tx, rx) = channel();
+    for (k, (bus, iface)) in opts.socketcan.iter().enumerate() {
+        let b = names.iter().position(|n| n == bus).ok_or(format!("--socketcan {bus}={iface}: no device on {bus}"))?;
+        bridge(BRIDGE_IDS + k, b, iface, tx.clone()).map_err(|e| format!("--socketcan {bus}={iface}: {e}"))?;
+    }
     thread::spawn(move || accept(listener, names, tx));
     let master = opts.devices.is_empty().then(|| BenchMaster::new(&buses));
     Sim {
@@ -91,11 +97,23 @@ pub fn run(opts: &Options) -> Result<(), String> {
     Ok(())
 }
 
+/// Where a client's frames go.
+enum Sink {
+    /// A socketcand client's writer: the text to send.
+    Text(Sender<String>),
+    /// A SocketCAN bridge's writer: the frame.
+    Can(Sender<Frame>),
+}
+
 struct Client {
     id: usize,
     bus: usize,
-    out: Sender<String>,
+    out: Sink,
+    label: String,
 }
+
+/// The first client number of SocketCAN bridges (socketcand clients count from 1).
+const BRIDGE_IDS: usize = 1 << 30;
 
 struct Sim {
     buses: Vec<SimBus>,
@@ -205,8 +223,20 @@ impl Sim {
 
     fn event(&mut self, ev: Event) {
         match ev {
-            Event::Join { id, bus, out } => self.clients.push(Client { id, bus, out }),
-            Event::Left { id } => self.clients.retain(|c| c.id != id),
+            Event::Join { id, bus, out, label } => {
+                if !self.quiet {
+                    println!("-- {label} joins {}", self.buses[bus].name);
+                }
+                self.clients.push(Client { id, bus, out, label })
+            }
+            Event::Left { id } => {
+                if let Some(c) = self.clients.iter().find(|c| c.id == id) {
+                    if !self.quiet {
+                        println!("-- {} leaves {}", c.label, self.buses[c.bus].name);
+                    }
+                }
+                self.clients.retain(|c| c.id != id)
+            }
             Event::Frame { id, bus, frame } => {
                 let now = self.now();
                 self.show(bus, &frame, From::Client(id));
@@ -221,7 +251,21 @@ impl Sim {
         let wall = self.epoch + self.start.elapsed();
         let micros = wall.duration_since(UNIX_EPOCH).map(|d| d.as_micros() as u64).unwrap_or(0);
         let msg = sc::frame_message(frame, micros);
-        self.clients.retain(|c| c.bus != b || From::Client(c.id) == from || c.out.send(msg.clone()).is_ok());
+        let who = match from {
+            From::Node => String::new(),
+            From::Client(id) => {
+                format!("  ({})", self.clients.iter().find(|c| c.id == id).map_or("client", |c| c.label.as_str()))
+            }
+            From::Master => "  (bench master)".into(),
+        };
+        self.clients.retain(|c| {
+            c.bus != b
+                || From::Client(c.id) == from
+                || match &c.out {
+                    Sink::Text(out) => out.send(msg.clone()).is_ok(),
+                    Sink::Can(out) => out.send(*frame).is_ok(),
+                }
+        });
         let bus = &self.buses[b];
         let data: String = frame.payload().iter().map(|x| format!("{x:02X}")).collect();
         if let Some(t) = &mut self.trace {
@@ -234,11 +278,6 @@ impl Sim {
             let known: Vec<Known> =
                 (0..bus.segment.len()).map(|i| Known { label: &bus.labels[i], core: bus.segment.core(i) }).collect();
             let bytes: Vec<String> = frame.payload().iter().map(|x| format!("{x:02X}")).collect();
-            let who = match from {
-                From::Node => String::new(),
-                From::Client(id) => format!("  (client {id})"),
-                From::Master => "  (bench master)".into(),
-            };
             println!(
                 "{:<5} {:>8}   [{}]  {:<24} {}{who}",
                 bus.name,
@@ -249,6 +288,38 @@ impl Sim {
             );
         }
     }
+}
+
+/// SocketCAN is Linux only.
+#[cfg(not(target_os = "linux"))]
+fn bridge(_: usize, _: usize, _: &str, _: Sender<Event>) -> std::io::Result<()> {
+    Err(std::io::Error::new(std::io::ErrorKind::Unsupported, "SocketCAN exists on Linux only"))
+}
+
+/// Bridges bus `bus` to the SocketCAN interface `iface`: its frames go onto the bus like a
+/// client's, and the bus's frames go out on it.
+#[cfg(target_os = "linux")]
+fn bridge(id: usize, bus: usize, iface: &str, tx: Sender<Event>) -> std::io::Result<()> {
+    let rx_sock = CanSocket::open(iface)?;
+    let tx_sock = rx_sock.try_clone()?;
+    let (out, frames) = channel::<Frame>();
+    tx.send(Event::Join { id, bus, out: Sink::Can(out), label: iface.to_string() }).map_err(std::io::Error::other)?;
+    thread::spawn(move || {
+        for f in frames {
+            // A full transmit queue (no one acknowledges on a real bus) drops the frame, as a
+            // controller would retry it only so long.
+            let _ = tx_sock.send(&f);
+        }
+    });
+    thread::spawn(move || {
+        while let Ok(frame) = rx_sock.recv() {
+            if tx.send(Event::Frame { id, bus, frame }).is_err() {
+                break;
+            }
+        }
+        let _ = tx.send(Event::Left { id });
+    });
+    Ok(())
 }
 
 fn accept(listener: TcpListener, names: Arc<Vec<String>>, tx: Sender<Event>) {
@@ -308,7 +379,9 @@ fn serve(id: usize, stream: TcpStream, names: &[String], tx: Sender<Event>) {
                         // the writer holds frames back a moment so they do not arrive glued
                         // to it (none is lost: they wait in the channel).
                         let _ = out.send(String::new());
-                        if tx.send(Event::Join { id, bus: b, out: out.clone() }).is_err() {
+                        let join =
+                            Event::Join { id, bus: b, out: Sink::Text(out.clone()), label: format!("client {id}") };
+                        if tx.send(join).is_err() {
                             return;
                         }
                         None
