@@ -474,8 +474,8 @@ impl<D: Device> Node<D> {
         let device = &self.device;
         storage::reload(&mut self.core, kind, |e, groups| device.restores(e, groups));
         self.activate_pending();
-        self.core.pdo.touch_rx_ids();
-        pdo::on_state(&mut self.core, now);
+        // The reloaded PDO configuration and node-ID count from now (filters, caches).
+        pdo::reset(&mut self.core, now);
         lss::reset(&mut self.core);
         emcy::reset(&mut self.core);
         self.device.on_reset(&mut self.core, kind, now);

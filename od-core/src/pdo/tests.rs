@@ -414,3 +414,113 @@ fn no_pdo_from_a_stopped_or_resetting_node() {
     n.poll(at(200));
     assert!(frames(&mut n).is_empty());
 }
+
+mod model {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[derive(Clone, Debug)]
+    enum Step {
+        Frame { id: u16, rtr: bool, len: u8, data: [u8; 8] },
+        Nmt(u8),
+        Write { entry: usize, value: u32 },
+        Advance(u16),
+    }
+
+    /// Identifiers near the ones the node uses, so that the handlers are hit often.
+    fn id() -> impl Strategy<Value = u16> {
+        prop_oneof![
+            Just(0x080u16),
+            Just(0x081),
+            Just(0x185),
+            Just(0x190),
+            Just(0x205),
+            Just(0x285),
+            Just(0x305),
+            0u16..0x800,
+        ]
+    }
+
+    fn step() -> impl Strategy<Value = Step> {
+        prop_oneof![
+            4 => (id(), any::<bool>(), 0u8..=8, any::<[u8; 8]>())
+                .prop_map(|(id, rtr, len, data)| Step::Frame { id, rtr, len, data }),
+            2 => prop_oneof![Just(0x01u8), Just(0x02), Just(0x80), Just(0x82)].prop_map(Step::Nmt),
+            3 => (0..T.len(), prop_oneof![
+                    any::<u32>(),
+                    0u32..0x100,
+                    Just(0x8000_0185),
+                    Just(0x185),
+                    Just(0x8000_0190),
+                    Just(0x190),
+                    Just(0x2000_0008),
+                    Just(0x2001_0010),
+                ]).prop_map(|(entry, value)| Step::Write { entry, value }),
+            2 => (0u16..300).prop_map(Step::Advance),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+        /// Any sequence of frames, NMT commands and writes: no panic, no PDO outside
+        /// OPERATIONAL, a deadline never left behind by a poll, and the cache equal to what a
+        /// fresh read of the dictionary gives after a reset.
+        #[test]
+        fn pdo_layer_holds_its_invariants(steps in proptest::collection::vec(step(), 1..60)) {
+            let mut n = node(false);
+            let mut now = at(0);
+            for s in steps {
+                match s {
+                    Step::Frame { id, rtr, len, data } => {
+                        let f = if rtr { Frame::remote(CanId::Std(id), len) } else { Frame::std(id, &data[..len as usize]) };
+                        n.on_frame(&f, now);
+                    }
+                    Step::Nmt(cs) => n.on_frame(&Frame::std(0, &[cs, 5]), now),
+                    Step::Write { entry, value } => {
+                        let e = T[entry];
+                        let value = if e.dtype.size() < 4 { value & ((1 << (8 * e.dtype.size())) - 1) } else { value };
+                        if e.access.writable() {
+                            let _ = write(&mut n, e.index, e.sub, value, now);
+                        }
+                    }
+                    Step::Advance(ms) => {
+                        let until = now.add_millis(ms as u64);
+                        while let Some(d) = n.next_deadline().filter(|d| *d <= until) {
+                            now = now.max(d);
+                            n.poll(now);
+                            prop_assert!(n.next_deadline().is_none_or(|d| d > now));
+                        }
+                        now = until;
+                    }
+                }
+                let operational = n.nmt_state() == NmtState::Operational;
+                let core = n.core();
+                let pdo_ids: std::vec::Vec<CanId> = core.pdo.tpdos().iter().map(|t| t.id)
+                    .chain(core.pdo.rpdos().iter().map(|r| r.id)).collect();
+                for f in frames(&mut n) {
+                    if pdo_ids.contains(&f.id) {
+                        prop_assert!(operational, "PDO {f:?} outside OPERATIONAL");
+                    }
+                }
+                if !operational {
+                    prop_assert_eq!(n.core().pdo.deadline, None);
+                }
+            }
+            // The cache kept by the write rules equals a fresh resolution of the dictionary.
+            let core = n.split().1;
+            let kept = core.pdo.clone();
+            reset(core, now);
+            if core.nmt == NmtState::Operational {
+                core.pdo.running = true;
+            }
+            for (a, b) in kept.tpdos().iter().zip(core.pdo.tpdos()) {
+                prop_assert_eq!((a.id, a.valid, a.rtr, a.ttype, a.map), (b.id, b.valid, b.rtr, b.ttype, b.map));
+            }
+            for (a, b) in kept.rpdos().iter().zip(core.pdo.rpdos()) {
+                prop_assert_eq!((a.id, a.valid, a.ttype, a.map), (b.id, b.valid, b.ttype, b.map));
+            }
+            prop_assert_eq!(kept.sync, core.pdo.sync);
+        }
+    }
+}
