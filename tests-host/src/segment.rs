@@ -27,6 +27,10 @@ pub trait Station {
     fn store_done(&mut self, ok: bool, now: Instant);
     /// The node's shared state (what a store persists).
     fn core(&self) -> &Core;
+    /// What the device shows its user (LEDs, screen) as text, if it has anything to show.
+    fn panel(&self) -> Option<String> {
+        None
+    }
 }
 
 impl<D: Device> Station for Node<D> {
@@ -174,6 +178,11 @@ impl Segment {
     /// Node `n`'s station.
     pub fn station(&mut self, n: usize) -> &mut dyn Station {
         self.nodes[n].station.as_mut()
+    }
+
+    /// What node `n` shows its user (see [`Station::panel`]).
+    pub fn panel(&self, n: usize) -> Option<String> {
+        self.nodes[n].station.panel()
     }
 
     /// Node `n`'s shared state.

@@ -170,7 +170,7 @@ fn device_specs_and_their_errors() {
 #[test]
 fn kinds_not_built_yet_say_so_and_wrong_keys_are_refused() {
     let r = Registry::new(None);
-    for kind in ["ap10t", "wv5800m", "wv58mr"] {
+    for kind in ["ap10t", "wv58mr"] {
         let err = r.build(&parse_device(kind).unwrap(), 1).err().unwrap();
         assert!(err.contains("not yet available"), "{kind}: {err}");
     }
@@ -181,6 +181,29 @@ fn kinds_not_built_yet_say_so_and_wrong_keys_are_refused() {
     assert_eq!(r.build(&parse_device("sgh50:redundant=true").unwrap(), 1).unwrap().len(), 2);
     assert_eq!(r.build(&parse_device("sgh10:variant=sgh10l").unwrap(), 1).unwrap().len(), 1);
     assert!(r.build(&parse_device("sgh10:variant=xyz").unwrap(), 1).is_err());
+    for v in ["wv1", "wv16", "WV256", "wh4096"] {
+        assert_eq!(r.build(&parse_device(&format!("wv5800m:variant={v}")).unwrap(), 1).unwrap().len(), 1, "{v}");
+    }
+    for v in ["wv2", "xx16"] {
+        let err = r.build(&parse_device(&format!("wv5800m:variant={v}")).unwrap(), 1).err().unwrap();
+        assert!(err.contains("unknown variant"), "{err}");
+    }
+}
+
+#[test]
+fn the_wv5800m_shows_its_leds() {
+    let r = Registry::new(None);
+    let plan = r.build(&parse_device("wv5800m:node=30,variant=wh16").unwrap(), 1).unwrap().pop().unwrap();
+    assert_eq!(plan.label, "WH5800M");
+    let mut params = plan.params;
+    let mut node = (plan.boot)(&params.load());
+    assert_eq!(node.core().node_id, 30);
+    assert_eq!(node.panel().as_deref(), Some("LEDs green=Off red=Off yellow=Off"), "before the boot");
+    node.poll(od_core::Instant::ZERO);
+    while node.next_output().is_some() {}
+    assert_eq!(node.panel().as_deref(), Some("LEDs green=Flashing red=Off yellow=Off"), "pre-operational blinks");
+    let plan = r.build(&parse_device("sgh10").unwrap(), 1).unwrap().pop().unwrap();
+    assert_eq!((plan.boot)(&od_core::storage::Loaded::Blank).panel(), None, "the SGH10 has no LEDs to show");
 }
 
 #[test]

@@ -5,7 +5,8 @@
 use std::f64::consts::TAU;
 use std::path::Path;
 
-use od_core::devices::{sgh10, sgh50};
+use od_core::devices::{sgh10, sgh50, wv5800m};
+use od_core::encoder::rotary;
 use od_core::encoder::Encoder;
 use od_core::node::{Core, Node, Output};
 use od_core::od::{CoreHook, Entry, Hook};
@@ -22,6 +23,8 @@ pub const REGION: Region = Region { offset: 0, pages: 2 };
 /// An encoder node with its simulated sensor: the sensor is sampled at the device's period.
 pub struct Sensed<E: Encoder> {
     node: Node<E>,
+    /// What the device shows (LEDs, screen), for the live view.
+    panel: Option<Panel<E>>,
     motion: Motion,
     /// The raw value's range (0..=max).
     max: u32,
@@ -31,8 +34,23 @@ pub struct Sensed<E: Encoder> {
 impl<E: Encoder> Sensed<E> {
     /// `node` whose sensor moves as `motion` within 0..=`max`.
     pub fn new(node: Node<E>, motion: Motion, max: u32) -> Sensed<E> {
-        Sensed { node, motion, max, next_sample: Instant::ZERO }
+        Sensed { node, panel: None, motion, max, next_sample: Instant::ZERO }
     }
+
+    /// Shows what `panel` makes of the device in the live view.
+    pub fn with_panel(mut self, panel: Panel<E>) -> Sensed<E> {
+        self.panel = Some(panel);
+        self
+    }
+}
+
+/// What a device shows its user, as text.
+pub type Panel<E> = fn(&E, &Core) -> String;
+
+/// The WV5800M's three LEDs (CiA 303-3 green and red, yellow over-speed).
+fn wv5800m_leds(d: &wv5800m::Wv5800m, core: &Core) -> String {
+    let l = d.leds(core);
+    format!("LEDs green={:?} red={:?} yellow={:?}", l.green, l.red, l.yellow)
 }
 
 /// The raw sensor value of `motion` within 0..=`max` at `t` seconds.
@@ -73,6 +91,9 @@ impl<E: Encoder> Station for Sensed<E> {
     }
     fn core(&self) -> &Core {
         self.node.core()
+    }
+    fn panel(&self) -> Option<String> {
+        self.panel.map(|p| p(self.node.device(), self.node.core()))
     }
 }
 
@@ -190,8 +211,14 @@ const fn linear_max(max_steps: i64) -> u32 {
     (max_steps * 100) as u32
 }
 
-fn encoder_boot<E: Encoder + Clone + 'static>(device: E, motion: Motion, max: u32) -> Boot {
-    Box::new(move |loaded: &Loaded| Box::new(Sensed::new(Node::boot(device.clone(), loaded), motion, max)))
+fn encoder_boot<E: Encoder + Clone + 'static>(device: E, motion: Motion, max: u32, panel: Option<Panel<E>>) -> Boot {
+    Box::new(move |loaded: &Loaded| {
+        let sensed = Sensed::new(Node::boot(device.clone(), loaded), motion, max);
+        Box::new(match panel {
+            Some(p) => sensed.with_panel(p),
+            None => sensed,
+        })
+    })
 }
 
 /// The nodes a device spec makes. The one place that knows every kind.
@@ -221,7 +248,7 @@ fn plan(spec: &DeviceSpec) -> Result<Vec<Channel>, String> {
                 label: "SGH10".into(),
                 suffix: "",
                 table: sgh10::TABLE,
-                boot: encoder_boot(sgh10::Sgh10::new(variant), motion, max),
+                boot: encoder_boot(sgh10::Sgh10::new(variant), motion, max, None),
             }])
         }
         Kind::Sgh50 => {
@@ -235,24 +262,63 @@ fn plan(spec: &DeviceSpec) -> Result<Vec<Channel>, String> {
                     label: "SGH50".into(),
                     suffix: "",
                     table: sgh50::TABLE,
-                    boot: encoder_boot(sgh50::Sgh50::new(sgh50::Variant::Single), motion, max),
+                    boot: encoder_boot(sgh50::Sgh50::new(sgh50::Variant::Single), motion, max, None),
                 }]);
             }
             let ch = |c, label: &str, suffix, table| Channel {
                 label: label.into(),
                 suffix,
                 table,
-                boot: encoder_boot(sgh50::Sgh50::new(sgh50::Variant::Redundant(c)), motion, max),
+                boot: encoder_boot(sgh50::Sgh50::new(sgh50::Variant::Redundant(c)), motion, max, None),
             };
             Ok(vec![
                 ch(sgh50::Channel::First, "SGH50-A", "a", sgh50::TABLE),
                 ch(sgh50::Channel::Second, "SGH50-B", "b", sgh50::TABLE_SECOND),
             ])
         }
-        Kind::Wv5800m => unavailable("the WV5800M"),
+        Kind::Wv5800m => {
+            if spec.redundant {
+                return Err("--device wv5800m: there is no redundant WV5800M".into());
+            }
+            let variant = wv5800m_variant(spec.variant.as_deref())?;
+            let max = rotary::raw_range(variant.turns.revolutions()) - 1;
+            // Half a revolution per second (30 rpm) unless told otherwise.
+            let motion = spec.motion.unwrap_or(Motion::Ramp(rotary::PHYSICAL_STEPS as f64 / 2.0));
+            Ok(vec![Channel {
+                label: variant.model.name().into(),
+                suffix: "",
+                table: wv5800m::table_of(variant),
+                boot: encoder_boot(wv5800m::Wv5800m::new(variant), motion, max, Some(wv5800m_leds)),
+            }])
+        }
         Kind::Ap10t => unavailable("the AP10T"),
         Kind::Wv58mr => unavailable("the WV58MR (J1939)"),
     }
+}
+
+/// `variant=` of a WV5800M: model and revolutions, `wv4096` (default), `wv256`, `wv16`, `wv1`,
+/// `wh4096` ... `wh1`.
+fn wv5800m_variant(name: Option<&str>) -> Result<wv5800m::Variant, String> {
+    use wv5800m::{Model, Turns, Variant};
+    let name = name.unwrap_or("wv4096").to_ascii_lowercase();
+    let (model, turns) = name.split_at(name.len().min(2));
+    let model = match model {
+        "wv" => Model::Wv,
+        "wh" => Model::Wh,
+        _ => {
+            return Err(format!("--device wv5800m: unknown variant {name} (wv1, wv16, wv256, wv4096, wh1 ... wh4096)"))
+        }
+    };
+    let turns = match turns {
+        "1" => Turns::Single,
+        "16" => Turns::Multi4,
+        "256" => Turns::Multi8,
+        "4096" | "" => Turns::Multi12,
+        _ => {
+            return Err(format!("--device wv5800m: unknown variant {name} (wv1, wv16, wv256, wv4096, wh1 ... wh4096)"))
+        }
+    };
+    Ok(Variant { model, turns })
 }
 
 /// The ready-made bench: every device available so far on distinct node-IDs on can0.
@@ -267,5 +333,9 @@ pub fn bench() -> Vec<DeviceSpec> {
         redundant,
         motion: Some(motion),
     };
-    vec![d(Kind::Sgh10, 10, false, Motion::Sine(300_000.0, 20.0)), d(Kind::Sgh50, 20, true, Motion::Ramp(50_000.0))]
+    vec![
+        d(Kind::Sgh10, 10, false, Motion::Sine(300_000.0, 20.0)),
+        d(Kind::Sgh50, 20, true, Motion::Ramp(50_000.0)),
+        d(Kind::Wv5800m, 30, false, Motion::Sine(40_000.0, 8.0)),
+    ]
 }

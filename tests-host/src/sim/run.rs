@@ -30,6 +30,8 @@ struct SimBus {
     rate: Bitrate,
     segment: Segment,
     labels: Vec<String>,
+    /// What each node showed last (LEDs, screen).
+    panels: Vec<Option<String>>,
 }
 
 /// What client threads tell the main loop.
@@ -57,12 +59,19 @@ pub fn run(opts: &Options) -> Result<(), String> {
                 Some(b) => b,
                 None => {
                     let rate = opts.bitrate(&plan.bus);
-                    buses.push(SimBus { name: plan.bus.clone(), rate, segment: Segment::new(), labels: Vec::new() });
+                    buses.push(SimBus {
+                        name: plan.bus.clone(),
+                        rate,
+                        segment: Segment::new(),
+                        labels: Vec::new(),
+                        panels: Vec::new(),
+                    });
                     buses.len() - 1
                 }
             };
             buses[b].segment.add_with_flash(plan.params, plan.boot);
             buses[b].labels.push(plan.label);
+            buses[b].panels.push(None);
         }
     }
     let listener = TcpListener::bind(&opts.listen).map_err(|e| format!("--listen {}: {e}", opts.listen))?;
@@ -202,6 +211,7 @@ impl Sim {
                 for f in sent {
                     self.show(b, &f, From::Node);
                 }
+                self.show_panels(b);
             }
             let master = self.master.as_ref().map(|m| Instant::from_millis(m.deadline()));
             let next = self.buses.iter().filter_map(|b| b.segment.next_deadline()).chain(master).min();
@@ -242,6 +252,20 @@ impl Sim {
                 self.show(bus, &frame, From::Client(id));
                 let b = &mut self.buses[bus];
                 b.segment.deliver(None, &frame, b.rate, now);
+            }
+        }
+    }
+
+    /// The nodes of bus `b` whose LEDs or screen changed: shown in the view.
+    fn show_panels(&mut self, b: usize) {
+        let bus = &mut self.buses[b];
+        for i in 0..bus.segment.len() {
+            let panel = bus.segment.panel(i);
+            if panel != bus.panels[i] {
+                if let (Some(p), false) = (&panel, self.quiet) {
+                    println!("{:<5} {}#{} {p}", bus.name, bus.labels[i], bus.segment.core(i).node_id);
+                }
+                bus.panels[i] = panel;
             }
         }
     }
