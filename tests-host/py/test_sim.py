@@ -1,8 +1,8 @@
 """Interop: the simulator (`sim`) driven as a real master would, through python-can's socketcand
 interface and python-canopen, with each device's checked-in EDS as the node's dictionary.
 
-The simulator binary is $SIM_BIN, else target/release/sim or target/debug/sim (built by
-`cargo build -p tests-host --bin sim` if neither exists). Run: pytest tests-host/py/test_sim.py
+The simulator binary is $SIM_BIN, else target/debug/sim as `cargo build -p tests-host --bin sim`
+leaves it. Run: pytest tests-host/py/test_sim.py
 """
 
 import os
@@ -21,16 +21,27 @@ EDS = ROOT / "eds"
 SGH10_EDS = str(EDS / "SGH10.eds")
 NODE = 10
 
+# Every CANopen device the simulator has, with its EDS (if checked in yet), a fixed sensor value
+# (`position=`) and the position value it gives in TPDO2 with the default scaling.
+DEVICES = {
+    "sgh10": ("SGH10.eds", 466000, 4660),  # um of wire, 0.1 mm steps
+    "sgh50": ("SGH50.eds", 466000, 4660),
+    "wv5800m": ("WV5800M.eds", 8192, 8192),  # half a revolution, 16384 steps a turn
+}
+KINDS = [k for k, (eds, _, _) in DEVICES.items() if (EDS / eds).exists()]
+
+
+_built = []
+
 
 def sim_binary():
     env = os.environ.get("SIM_BIN")
     if env:
         return env
-    for profile in ("release", "debug"):
-        p = ROOT / "target" / profile / "sim"
-        if p.exists():
-            return str(p)
-    subprocess.run(["cargo", "build", "-p", "tests-host", "--bin", "sim"], cwd=ROOT, check=True)
+    if not _built:
+        # Up to date with the sources (a no-op when nothing changed).
+        subprocess.run(["cargo", "build", "-q", "-p", "tests-host", "--bin", "sim"], cwd=ROOT, check=True)
+        _built.append(True)
     return str(ROOT / "target" / "debug" / "sim")
 
 
@@ -87,9 +98,27 @@ def state_dir(tmp_path):
     return str(tmp_path / "state")
 
 
+@pytest.fixture(params=KINDS)
+def kind(request):
+    return request.param
+
+
 @pytest.fixture
-def sim(state_dir):
-    s = Sim("--device", f"sgh10:node={NODE},serial=0x1234,position=466000", "--state-dir", state_dir)
+def eds(kind):
+    return str(EDS / DEVICES[kind][0])
+
+
+@pytest.fixture
+def sim(state_dir, kind):
+    s = Sim("--device", f"{kind}:node={NODE},serial=0x1234,position={DEVICES[kind][1]}", "--state-dir", state_dir)
+    yield s
+    s.stop()
+
+
+@pytest.fixture
+def one_sim(state_dir):
+    """One SGH10, for the tests of the server itself."""
+    s = Sim("--device", f"sgh10:node={NODE}", "--state-dir", state_dir)
     yield s
     s.stop()
 
@@ -102,8 +131,8 @@ def net(sim):
 
 
 @pytest.fixture
-def node(net):
-    return net.add_node(NODE, SGH10_EDS)
+def node(net, eds):
+    return net.add_node(NODE, eds)
 
 
 def sdo_server_present(net):
@@ -133,8 +162,8 @@ def expect_abort(code, fn):
 # ---- SDO ----
 
 
-def test_identity_and_device_name(sdo):
-    od = canopen.import_od(SGH10_EDS, NODE)
+def test_identity_and_device_name(sdo, eds):
+    od = canopen.import_od(eds, NODE)
     for sub in (1, 2, 3):
         assert sdo.sdo[0x1018][sub].raw == od[0x1018][sub].default
     assert sdo.sdo[0x1018][4].raw == 0x1234, "the serial number the command line configured"
@@ -152,14 +181,14 @@ def test_write_read_back_and_abort_codes(sdo):
     assert sdo.sdo["Producer heartbeat time"].raw == 250
 
 
-def test_store_and_power_cycle_keep_a_value(sim, state_dir, sdo):
+def test_store_and_power_cycle_keep_a_value(sim, eds, sdo):
     sdo.sdo["Producer heartbeat time"].raw = 321
     sdo.sdo[0x1010][1].raw = 0x65766173  # "save"
     sdo.network.disconnect()
     sim.restart()
     net = sim.network()
     try:
-        node = net.add_node(NODE, SGH10_EDS)
+        node = net.add_node(NODE, eds)
         assert node.sdo["Producer heartbeat time"].raw == 321
     finally:
         net.disconnect()
@@ -181,7 +210,7 @@ def test_reset_gives_a_boot_up(node):
     node.nmt.wait_for_bootup(timeout=2)
 
 
-def test_tpdo_on_sync_through_subscriptions(net, node):
+def test_tpdo_on_sync_through_subscriptions(net, node, kind):
     node.tpdo.read(from_od=True)
     tpdo = node.pdo.tx[2]
     assert tpdo.enabled and tpdo.trans_type == 1 and tpdo.cob_id == 0x280 + NODE
@@ -195,8 +224,8 @@ def test_tpdo_on_sync_through_subscriptions(net, node):
         tpdo.wait_for_reception(timeout=1)
     time.sleep(0.05)
     assert len(got) == 3
-    # position=466000 um with 0.1 mm steps; the sensor stands still.
-    assert all(pos == 4660 and speed == 0 for pos, speed in got), got
+    # The sensor stands still at position=.
+    assert all(pos == DEVICES[kind][2] and speed == 0 for pos, speed in got), got
     # No SYNC, no TPDO; stopped, no TPDO on SYNC either.
     node.nmt.state = "STOPPED"
     time.sleep(0.05)
@@ -243,8 +272,8 @@ def test_lss_fastscan_configure_store_and_power_cycle(state_dir):
 # ---- the socketcand server ----
 
 
-def test_a_second_client_sees_the_same_traffic(sim):
-    a, b = sim.bus(), sim.bus()
+def test_a_second_client_sees_the_same_traffic(one_sim):
+    a, b = one_sim.bus(), one_sim.bus()
     try:
         a.send(can.Message(arbitration_id=0x000, data=[0x82, NODE], is_extended_id=False))
         seen_b = [b.recv(1) for _ in range(2)]
@@ -259,10 +288,10 @@ def test_a_second_client_sees_the_same_traffic(sim):
         b.shutdown()
 
 
-def test_bad_input_gets_an_error_and_stops_nothing(sim):
-    other = sim.bus()
+def test_bad_input_gets_an_error_and_stops_nothing(one_sim):
+    other = one_sim.bus()
     try:
-        with socket.create_connection(("127.0.0.1", sim.port)) as s:
+        with socket.create_connection(("127.0.0.1", one_sim.port)) as s:
             f = s.makefile("rwb", buffering=0)
 
             def ask(msg):
