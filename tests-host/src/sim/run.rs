@@ -9,7 +9,7 @@ use std::collections::HashMap;
 use std::fs::File;
 use std::io::{BufWriter, Read, Write};
 use std::net::{TcpListener, TcpStream};
-use std::sync::mpsc::{channel, Receiver, RecvTimeoutError, Sender};
+use std::sync::mpsc::{channel, sync_channel, Receiver, RecvTimeoutError, Sender, SyncSender, TrySendError};
 use std::sync::Arc;
 use std::thread;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
@@ -108,8 +108,9 @@ pub fn run(opts: &Options) -> Result<(), String> {
 
 /// Where a client's frames go.
 enum Sink {
-    /// A socketcand client's writer: the text to send.
-    Text(Sender<String>),
+    /// A socketcand client's writer: the text to send (bounded: a client that stops reading
+    /// loses frames rather than growing the simulator's memory).
+    Text(SyncSender<String>),
     /// A SocketCAN bridge's writer: the frame.
     Can(Sender<Frame>),
 }
@@ -120,6 +121,9 @@ struct Client {
     out: Sink,
     label: String,
 }
+
+/// Messages queued for one socketcand client at most (a second of a full 1 Mbit/s bus).
+const CLIENT_QUEUE: usize = 16_384;
 
 /// The first client number of SocketCAN bridges (socketcand clients count from 1).
 const BRIDGE_IDS: usize = 1 << 30;
@@ -286,7 +290,7 @@ impl Sim {
             c.bus != b
                 || From::Client(c.id) == from
                 || match &c.out {
-                    Sink::Text(out) => out.send(msg.clone()).is_ok(),
+                    Sink::Text(out) => !matches!(out.try_send(msg.clone()), Err(TrySendError::Disconnected(_))),
                     Sink::Can(out) => out.send(*frame).is_ok(),
                 }
         });
@@ -358,7 +362,7 @@ fn accept(listener: TcpListener, names: Arc<Vec<String>>, tx: Sender<Event>) {
 fn serve(id: usize, stream: TcpStream, names: &[String], tx: Sender<Event>) {
     let _ = stream.set_nodelay(true);
     let Ok(mut writer) = stream.try_clone() else { return };
-    let (out, out_rx) = channel::<String>();
+    let (out, out_rx) = sync_channel::<String>(CLIENT_QUEUE);
     thread::spawn(move || {
         for msg in out_rx {
             if msg.is_empty() {
