@@ -530,10 +530,10 @@ impl Od {
         if let Some((lo, hi)) = e.limits {
             let v = e.dtype.to_i64(value);
             if v < lo {
-                return Err(Abort::VALUE_LOW);
+                return Err(Abort::INVALID_VALUE);
             }
             if v > hi {
-                return Err(Abort::VALUE_HIGH);
+                return Err(Abort::INVALID_VALUE);
             }
         }
         if e.dtype == DataType::Boolean && value > 1 {
@@ -587,8 +587,8 @@ mod tests {
         assert_eq!(od.check_write(2, &[1, 0, 0]), Err(Abort::LENGTH_HIGH));
         assert_eq!(od.check_write(2, &[1]), Err(Abort::LENGTH_LOW));
         assert_eq!(od.check_write(2, &[100, 0]), Ok(100));
-        assert_eq!(od.check_write(6, &(-11i32).to_le_bytes()), Err(Abort::VALUE_LOW));
-        assert_eq!(od.check_write(6, &11i32.to_le_bytes()), Err(Abort::VALUE_HIGH));
+        assert_eq!(od.check_write(6, &(-11i32).to_le_bytes()), Err(Abort::INVALID_VALUE));
+        assert_eq!(od.check_write(6, &11i32.to_le_bytes()), Err(Abort::INVALID_VALUE));
         assert_eq!(od.check_write(6, &(-10i32).to_le_bytes()), Ok(-10i32 as u32));
         assert_eq!(od.check_read(7), Err(Abort::WRITE_ONLY));
         assert_eq!(od.get(6), -5i32 as u32);

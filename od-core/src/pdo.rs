@@ -719,7 +719,7 @@ fn write_mapping(core: &mut Core, dir: Dir, n: usize, sub: u8, value: u32) -> Re
         }
         return Ok(());
     }
-    let count = u8::try_from(value).map_err(|_| Abort::VALUE_HIGH)?;
+    let count = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
     let map = resolve(&core.od, index, Some(count), rx)?;
     match dir {
         Dir::Tx => core.pdo.tpdo[n].map = map,
@@ -736,12 +736,12 @@ fn resolve(od: &Od, index: u16, count: Option<u8>, rx: bool) -> Result<Mapping, 
         None => od.value(index, 0).ok_or(Abort::NO_OBJECT)? as u8,
     };
     if count as usize > MAX_MAPPED || (count > 0 && od.pos(index, count).is_none()) {
-        return Err(Abort::VALUE_HIGH);
+        return Err(Abort::INVALID_VALUE);
     }
     let mut map = Mapping { ok: true, ..Mapping::EMPTY };
     let mut bits = 0u32;
     for sub in 1..=count {
-        let value = od.value(index, sub).ok_or(Abort::VALUE_HIGH)?;
+        let value = od.value(index, sub).ok_or(Abort::INVALID_VALUE)?;
         let s = slice(od, value, rx)?;
         bits += s.bytes as u32 * 8;
         if bits > 64 {

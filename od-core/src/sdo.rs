@@ -297,3 +297,136 @@ impl SdoServer {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One 4-byte read-write value at 2000h.00 and a 10-byte read-only string at 2001h.00.
+    struct Fake {
+        value: u32,
+    }
+
+    const NAME: &[u8] = b"0123456789";
+
+    impl ObjectAccess for Fake {
+        fn read_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort> {
+            match (index, sub) {
+                (0x2000, 0) => Ok(4),
+                (0x2001, 0) => Ok(NAME.len()),
+                (0x2000 | 0x2001, _) => Err(Abort::NO_SUBINDEX),
+                _ => Err(Abort::NO_OBJECT),
+            }
+        }
+        fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort> {
+            let n = self.read_size(index, sub)?;
+            if index == 0x2000 {
+                buf[..4].copy_from_slice(&self.value.to_le_bytes());
+            } else {
+                buf[..n].copy_from_slice(NAME);
+            }
+            Ok(n)
+        }
+        fn write(&mut self, index: u16, sub: u8, data: &[u8], _now: Instant) -> Result<Written, Abort> {
+            self.read_size(index, sub)?;
+            if index != 0x2000 {
+                return Err(Abort::READ_ONLY);
+            }
+            let v: [u8; 4] = data.try_into().map_err(|_| Abort::LENGTH_MISMATCH)?;
+            self.value = u32::from_le_bytes(v);
+            Ok(Written::Done)
+        }
+    }
+
+    fn at(ms: u64) -> Instant {
+        Instant::from_millis(ms)
+    }
+
+    #[test]
+    fn segmented_upload_of_ten_bytes_in_two_segments() {
+        let (mut s, mut d) = (SdoServer::new(), Fake { value: 0 });
+        let r = s.on_request(&[0x40, 0x01, 0x20, 0, 0, 0, 0, 0], at(0), &mut d);
+        assert_eq!(r, Some([0x41, 0x01, 0x20, 0, 10, 0, 0, 0]));
+        let r = s.on_request(&[0x60, 0, 0, 0, 0, 0, 0, 0], at(1), &mut d);
+        assert_eq!(r, Some([0x00, b'0', b'1', b'2', b'3', b'4', b'5', b'6']));
+        assert_eq!(s.next_deadline(), Some(at(1001)));
+        let r = s.on_request(&[0x70, 0, 0, 0, 0, 0, 0, 0], at(2), &mut d);
+        assert_eq!(r, Some([0x19, b'7', b'8', b'9', 0, 0, 0, 0]));
+        assert_eq!(s.next_deadline(), None);
+    }
+
+    #[test]
+    fn segmented_download_in_two_segments_without_size() {
+        let (mut s, mut d) = (SdoServer::new(), Fake { value: 0 });
+        assert_eq!(
+            s.on_request(&[0x20, 0x00, 0x20, 0, 0, 0, 0, 0], at(0), &mut d),
+            Some([0x60, 0, 0x20, 0, 0, 0, 0, 0])
+        );
+        assert_eq!(s.on_request(&[0x0A, 1, 2, 0, 0, 0, 0, 0], at(0), &mut d), Some([0x20, 0, 0, 0, 0, 0, 0, 0]));
+        assert_eq!(d.value, 0, "nothing is written before the last segment");
+        assert_eq!(s.on_request(&[0x1B, 3, 4, 0, 0, 0, 0, 0], at(0), &mut d), Some([0x30, 0, 0, 0, 0, 0, 0, 0]));
+        assert_eq!(d.value, 0x0403_0201);
+    }
+
+    #[test]
+    fn oversized_downloads_abort_before_any_write() {
+        let (mut s, mut d) = (SdoServer::new(), Fake { value: 7 });
+        let r = s.on_request(&[0x21, 0x00, 0x20, 0, 33, 0, 0, 0], at(0), &mut d);
+        assert_eq!(r, Some(abort_frame(0x2000, 0, Abort::LENGTH_HIGH)));
+        s.on_request(&[0x20, 0x00, 0x20, 0, 0, 0, 0, 0], at(0), &mut d);
+        for i in 0..4u8 {
+            assert!(s.on_request(&[i << 4 & 0x10, 1, 2, 3, 4, 5, 6, 7], at(0), &mut d).unwrap()[0] != 0x80);
+        }
+        let r = s.on_request(&[0x00, 1, 2, 3, 4, 5, 6, 7], at(0), &mut d);
+        assert_eq!(r, Some(abort_frame(0x2000, 0, Abort::LENGTH_HIGH)));
+        assert_eq!(d.value, 7);
+    }
+
+    #[test]
+    fn deferred_writes_answer_when_the_shell_is_done() {
+        struct Saving;
+        impl ObjectAccess for Saving {
+            fn read_size(&mut self, _: u16, _: u8) -> Result<usize, Abort> {
+                Ok(4)
+            }
+            fn read(&mut self, _: u16, _: u8, _: &mut [u8]) -> Result<usize, Abort> {
+                Ok(4)
+            }
+            fn write(&mut self, _: u16, _: u8, _: &[u8], _: Instant) -> Result<Written, Abort> {
+                Ok(Written::Deferred)
+            }
+        }
+        let mut s = SdoServer::new();
+        assert_eq!(s.on_request(&[0x23, 0x10, 0x10, 1, b's', b'a', b'v', b'e'], at(0), &mut Saving), None);
+        assert_eq!(s.complete_deferred(Ok(())), Some([0x60, 0x10, 0x10, 1, 0, 0, 0, 0]));
+        assert_eq!(s.complete_deferred(Ok(())), None);
+        s.on_request(&[0x23, 0x10, 0x10, 1, b's', b'a', b'v', b'e'], at(0), &mut Saving);
+        assert_eq!(s.complete_deferred(Err(Abort::CANNOT_STORE)), Some(abort_frame(0x1010, 1, Abort::CANNOT_STORE)));
+    }
+
+    #[test]
+    fn short_frames_are_not_requests() {
+        let (mut s, mut d) = (SdoServer::new(), Fake { value: 0 });
+        assert_eq!(s.on_request(&[0x40, 0x00, 0x20, 0], at(0), &mut d), None);
+    }
+
+    mod fuzz {
+        use super::*;
+        use proptest::prelude::*;
+
+        proptest! {
+            /// Any sequence of requests gets a well-formed answer or none, never a panic, and
+            /// the value only ever holds what a complete write carried.
+            #[test]
+            fn arbitrary_requests_never_panic(reqs in proptest::collection::vec(proptest::array::uniform8(any::<u8>()), 1..40)) {
+                let (mut s, mut d) = (SdoServer::new(), Fake { value: 0 });
+                for (i, r) in reqs.iter().enumerate() {
+                    if let Some(resp) = s.on_request(r, at(i as u64 * 10), &mut d) {
+                        prop_assert!((resp[0] >> 5) <= 4, "{resp:02X?}");
+                    }
+                    let _ = s.poll(at(i as u64 * 10 + 5));
+                }
+            }
+        }
+    }
+}

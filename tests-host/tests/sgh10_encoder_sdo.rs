@@ -79,8 +79,8 @@ fn after_calibration_the_position_follows_the_wire() {
 #[test]
 fn calibration_limits_and_missing_reading() {
     let (mut bus, sensor) = sgh10(51_000);
-    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, 10240, 0x0609_0031);
-    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, (-10240i32) as u32, 0x0609_0032);
+    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, 10240, 0x0609_0030);
+    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, (-10240i32) as u32, 0x0609_0030);
     sdo_write_abort(&mut bus, 1, 0x6010, 1, 2, 5, 0x0607_0013);
     sdo_write(&mut bus, 1, 0x6010, 1, 4, 10239);
     sdo_write(&mut bus, 1, 0x6010, 1, 4, (-10239i32) as u32);
@@ -195,8 +195,8 @@ fn work_area_2_above_high_limit_raises_ff16h() {
     bus.expect(0x081, &emcy(0x0000, 0x81));
     assert_eq!(od(&mut bus, 0x6503, 0), 0x1000);
     // Limits outside the transferable range are refused.
-    sdo_write_abort(&mut bus, 1, 0x6401, 1, 4, (-20479i32) as u32, 0x0609_0032);
-    sdo_write_abort(&mut bus, 1, 0x6402, 2, 4, 30718, 0x0609_0031);
+    sdo_write_abort(&mut bus, 1, 0x6401, 1, 4, (-20479i32) as u32, 0x0609_0030);
+    sdo_write_abort(&mut bus, 1, 0x6402, 2, 4, 30718, 0x0609_0030);
 }
 
 #[test]
@@ -225,8 +225,8 @@ fn profile_identity_objects_read_as_the_manual_prints_them() {
     ] {
         assert_eq!(sdo_read(&mut bus, 1, index, sub), v, "{index:04X}h.{sub:02X}");
     }
-    sdo_write_abort(&mut bus, 1, 0x6005, 1, 4, 50_000, 0x0609_0032);
-    sdo_write_abort(&mut bus, 1, 0x6005, 2, 4, 1000, 0x0609_0031);
+    sdo_write_abort(&mut bus, 1, 0x6005, 1, 4, 50_000, 0x0609_0030);
+    sdo_write_abort(&mut bus, 1, 0x6005, 2, 4, 1000, 0x0609_0030);
     sdo_write_abort(&mut bus, 1, 0x6020, 1, 4, 0, 0x0601_0002);
     sdo_write_abort(&mut bus, 1, 0x6509, 0, 4, 0, 0x0601_0002);
     sdo_write_abort(&mut bus, 1, 0x6003, 0, 4, 0, 0x0602_0000);

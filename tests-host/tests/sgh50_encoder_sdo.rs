@@ -31,8 +31,8 @@ fn e1_calibrate_to_510_and_read_it_back() {
     bus.send(Frame::std(0x601, &[0x40, 0x20, 0x60, 0x01, 0x00, 0x00, 0x00, 0x00]));
     bus.expect(0x581, &[0x43, 0x20, 0x60, 0x01, 0xFE, 0x01, 0x00, 0x00]);
     assert_eq!(value(bus.station(0).core(), 0x6509, 0), 20_000 - 510);
-    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, 73840, 0x0609_0031);
-    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, (-73840i32) as u32, 0x0609_0032);
+    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, 73840, 0x0609_0030);
+    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, (-73840i32) as u32, 0x0609_0030);
 }
 
 #[test]
@@ -58,8 +58,8 @@ fn work_areas_raise_ff15h_and_ff16h() {
     sensor.set(4_000_000);
     bus.advance(1);
     bus.expect(0x081, &[0x00, 0x00, 0x81, 0, 0, 0, 0, 0]);
-    sdo_write_abort(&mut bus, 1, 0x6401, 1, 4, (-147679i32) as u32, 0x0609_0032);
-    sdo_write_abort(&mut bus, 1, 0x6402, 1, 4, 221518, 0x0609_0031);
+    sdo_write_abort(&mut bus, 1, 0x6401, 1, 4, (-147679i32) as u32, 0x0609_0030);
+    sdo_write_abort(&mut bus, 1, 0x6402, 1, 4, 221518, 0x0609_0030);
 }
 
 #[test]
@@ -68,7 +68,7 @@ fn bus_termination_5f09h_is_0_or_1() {
     assert_eq!(sdo_read(&mut bus, 1, 0x5F09, 0), 0);
     sdo_write(&mut bus, 1, 0x5F09, 0, 1, 1);
     assert_eq!(sdo_read(&mut bus, 1, 0x5F09, 0), 1);
-    sdo_write_abort(&mut bus, 1, 0x5F09, 0, 1, 2, 0x0609_0031);
+    sdo_write_abort(&mut bus, 1, 0x5F09, 0, 1, 2, 0x0609_0030);
 }
 
 #[test]
@@ -99,7 +99,7 @@ fn identity_and_profile_objects_read_as_printed() {
     sdo_write_abort(&mut bus, 1, 0x1800, 4, 1, 0, 0x0609_0011);
     sdo_write_abort(&mut bus, 1, 0x1801, 6, 1, 0, 0x0609_0011);
     sdo_write_abort(&mut bus, 1, 0x6003, 0, 4, 0, 0x0602_0000);
-    sdo_write_abort(&mut bus, 1, 0x1800, 2, 1, 0xFC, 0x0609_0032);
+    sdo_write_abort(&mut bus, 1, 0x1800, 2, 1, 0xFC, 0x0609_0030);
 }
 
 #[test]

@@ -180,11 +180,11 @@ fn calibration_with_2002h_sets_preset_plus_offset() {
     bus.advance(1);
     assert_eq!(value(bus.station(0).core(), 0x6004, 0), 67_108_864 - 500);
     // Out of range and invalid values are refused.
-    assert_eq!(write(&mut bus, 0x2002, 0, 2), Err(Abort::VALUE_HIGH));
-    assert_eq!(write(&mut bus, 0x2002, 0, 0), Err(Abort::VALUE_LOW));
-    assert_eq!(write(&mut bus, 0x6003, 0, R12), Err(Abort::VALUE_HIGH));
-    assert_eq!(write(&mut bus, 0x2001, 0, R12), Err(Abort::VALUE_HIGH));
-    assert_eq!(write(&mut bus, 0x2001, 0, (-(R12 as i32) - 1) as u32), Err(Abort::VALUE_LOW));
+    assert_eq!(write(&mut bus, 0x2002, 0, 2), Err(Abort::INVALID_VALUE));
+    assert_eq!(write(&mut bus, 0x2002, 0, 0), Err(Abort::INVALID_VALUE));
+    assert_eq!(write(&mut bus, 0x6003, 0, R12), Err(Abort::INVALID_VALUE));
+    assert_eq!(write(&mut bus, 0x2001, 0, R12), Err(Abort::INVALID_VALUE));
+    assert_eq!(write(&mut bus, 0x2001, 0, (-(R12 as i32) - 1) as u32), Err(Abort::INVALID_VALUE));
 }
 
 #[test]
@@ -214,11 +214,11 @@ fn apu_scales_and_6002h_follows() {
     assert_eq!(value(core, 0x6004, 0), 1260);
     assert_eq!(write(&mut bus, 0x6002, 0, 262_144), Err(Abort::INVALID_VALUE));
     assert_eq!(write(&mut bus, 0x6002, 0, 5760), Ok(()));
-    assert_eq!(write(&mut bus, 0x6001, 0, 0), Err(Abort::VALUE_LOW));
-    assert_eq!(write(&mut bus, 0x6001, 0, 65536), Err(Abort::VALUE_HIGH));
+    assert_eq!(write(&mut bus, 0x6001, 0, 0), Err(Abort::INVALID_VALUE));
+    assert_eq!(write(&mut bus, 0x6001, 0, 65536), Err(Abort::INVALID_VALUE));
     // The calibration range follows the APU: 0 ..= 5759.
-    assert_eq!(write(&mut bus, 0x6003, 0, 5760), Err(Abort::VALUE_HIGH));
-    assert_eq!(write(&mut bus, 0x6401, 1, 5760), Err(Abort::VALUE_HIGH));
+    assert_eq!(write(&mut bus, 0x6003, 0, 5760), Err(Abort::INVALID_VALUE));
+    assert_eq!(write(&mut bus, 0x6401, 1, 5760), Err(Abort::INVALID_VALUE));
     assert_eq!(write(&mut bus, 0x6003, 0, 5759), Ok(()));
     assert_eq!(value(bus.station(0).core(), 0x6004, 0), 1259);
 }

@@ -95,12 +95,12 @@ fn refusals() {
     assert_eq!(sdo_read(&mut bus, 1, 0x6002, 0), 4_096_000);
     assert_eq!(sdo_read(&mut bus, 1, 0x650A, 3), 4_095_999);
     sdo_write(&mut bus, 1, 0x6002, 0, 4, 4_096_000);
-    sdo_write_abort(&mut bus, 1, 0x6003, 0, 4, 4_096_000, 0x0609_0031);
+    sdo_write_abort(&mut bus, 1, 0x6003, 0, 4, 4_096_000, 0x0609_0030);
     sdo_write_abort(&mut bus, 1, 0x6000, 0, 2, 0x0000, 0x0609_0030);
     sdo_write_abort(&mut bus, 1, 0x6031, 2, 2, 200, 0x0601_0002);
-    sdo_write_abort(&mut bus, 1, 0x6031, 1, 1, 1, 0x0609_0032);
-    sdo_write_abort(&mut bus, 1, 0x5F0A, 1, 1, 0, 0x0609_0032);
-    sdo_write_abort(&mut bus, 1, 0x5F0A, 2, 1, 8, 0x0609_0031);
+    sdo_write_abort(&mut bus, 1, 0x6031, 1, 1, 1, 0x0609_0030);
+    sdo_write_abort(&mut bus, 1, 0x5F0A, 1, 1, 0, 0x0609_0030);
+    sdo_write_abort(&mut bus, 1, 0x5F0A, 2, 1, 8, 0x0609_0030);
 }
 
 /// A 12-bit multiturn WV5800M whose parameters live in `flash` and whose sensor is `sensor`.

@@ -545,7 +545,7 @@ impl Device for Wv5800m {
             }
             hooks::IN_RANGE => {
                 if value as i32 as i64 > before.largest() as i64 {
-                    return Err(Abort::VALUE_HIGH);
+                    return Err(Abort::INVALID_VALUE);
                 }
             }
             hooks::OFFSET | hooks::LIMIT_SPEED => {}

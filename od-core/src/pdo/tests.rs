@@ -241,7 +241,7 @@ fn mapping_rules() {
     write(&mut n, 0x1A00, 2, 0x2001_0010, at(0)).unwrap();
     // An invalid mapping cannot be enabled: sub 0 past a zero object, or past the record.
     assert_eq!(write(&mut n, 0x1A00, 0, 4, at(0)), Err(Abort::NOT_MAPPABLE));
-    assert_eq!(write(&mut n, 0x1A00, 0, 5, at(0)), Err(Abort::VALUE_HIGH));
+    assert_eq!(write(&mut n, 0x1A00, 0, 5, at(0)), Err(Abort::INVALID_VALUE));
     write(&mut n, 0x1A00, 0, 3, at(0)).unwrap();
     write(&mut n, 0x1800, 1, 0x185, at(0)).unwrap();
     write(&mut n, 0x1800, 2, 0xFD, at(0)).unwrap();
