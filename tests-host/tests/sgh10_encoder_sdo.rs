@@ -8,11 +8,9 @@
 
 use od_core::devices::sgh10::{self, Sgh10, Variant};
 use od_core::encoder::SensorFault;
-use od_core::node::{BusEvent, CanError};
-use od_core::{Bitrate, Frame, Instant, Node};
-use proptest::prelude::*;
+use od_core::{Bitrate, Frame, Node};
 use tests_host::bus::Bus;
-use tests_host::encoder::{direct_write, sdo_read, sdo_write, sdo_write_abort, value, Sensed, Sensor};
+use tests_host::encoder::{sdo_read, sdo_write, sdo_write_abort, value, Sensed, Sensor};
 
 const SERIAL: u32 = 0x0001_E240;
 
