@@ -424,7 +424,9 @@ impl Od {
     /// Position of (index, sub), or the abort code an SDO client gets for it:
     /// 06020000h when no entry has that index, 06090011h when the index exists but not the sub.
     pub fn find(&self, index: u16, sub: u8) -> Result<usize, Abort> {
-        match self.table.binary_search_by(|e| (e.index, e.sub).cmp(&(index, sub))) {
+        // One integer compare per step: (index, sub) packed as index << 8 | sub.
+        let key = (index as u32) << 8 | sub as u32;
+        match self.table.binary_search_by_key(&key, |e| (e.index as u32) << 8 | e.sub as u32) {
             Ok(pos) => Ok(pos),
             Err(at) => {
                 let near = |p: usize| self.table.get(p).is_some_and(|e| e.index == index);

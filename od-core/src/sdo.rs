@@ -140,25 +140,21 @@ impl SdoServer {
     }
 
     fn upload(&mut self, index: u16, sub: u8, now: Instant, dict: &mut impl ObjectAccess) -> Option<[u8; 8]> {
-        let size = match dict.read_size(index, sub) {
-            Ok(size) => size,
+        // One lookup: the value is read whole, then sent expedited or segmented by its size.
+        let mut value = [0u8; MAX_VALUE];
+        let n = match dict.read(index, sub, &mut value) {
+            Ok(n) => n,
             Err(abort) => return self.fail(index, sub, abort),
         };
-        if size <= 4 {
+        if n <= 4 {
             let mut out = header(0, index, sub);
-            let n = match dict.read(index, sub, &mut out[4..8]) {
-                Ok(n) => n,
-                Err(abort) => return self.fail(index, sub, abort),
-            };
+            out[4..4 + n].copy_from_slice(&value[..n]);
             // Expedited, size indicated: e = 1, s = 1, n = 4 - size.
             out[0] = 0x43 | (((4 - n) as u8) << 2);
             return Some(out);
         }
-        let n = match dict.read(index, sub, &mut self.buf[..size.min(MAX_VALUE)]) {
-            Ok(n) => n,
-            Err(abort) => return self.fail(index, sub, abort),
-        };
         self.begin(State::Upload, index, sub, now);
+        self.buf = value;
         self.len = n;
         let mut out = header(0x41, index, sub);
         out[4..8].copy_from_slice(&(n as u32).to_le_bytes());
