@@ -179,6 +179,19 @@ pub trait Device {
         let _ = (core, n, now);
     }
 
+    /// A remote frame asked for receive PDO `n` (0-based) in OPERATIONAL. CiA 301 defines no
+    /// answer, so by default there is none; a device whose manual has one (the AP10T returns
+    /// its set points) sends it, typically with [`pdo::reply`].
+    fn on_rpdo_rtr(&mut self, core: &mut Core, n: u8, now: Instant) {
+        let _ = (core, n, now);
+    }
+
+    /// A SYNC was received in PRE-OPERATIONAL or OPERATIONAL (after the synchronous TPDOs
+    /// were sent and the synchronous RPDOs written).
+    fn on_sync(&mut self, core: &mut Core, now: Instant) {
+        let _ = (core, now);
+    }
+
     /// Called after a reset, with the dictionary already re-initialised.
     fn on_reset(&mut self, core: &mut Core, kind: ResetKind, now: Instant) {
         let _ = (core, kind, now);
@@ -324,11 +337,19 @@ impl<D: Device> Node<D> {
                     guarding::on_rtr(&mut self.core, frame, now);
                 }
             }
-            _ => {
-                if let PdoEvent::Rpdo(n) = pdo::on_frame(&mut self.core, frame, now) {
-                    self.device.on_rpdo(&mut self.core, n, now);
+            _ => match pdo::on_frame(&mut self.core, frame, now) {
+                PdoEvent::None | PdoEvent::Rtr(_) => {}
+                PdoEvent::Sync { rpdos } => {
+                    for n in 0..pdo::MAX_RPDOS as u8 {
+                        if rpdos & (1 << n) != 0 {
+                            self.device.on_rpdo(&mut self.core, n, now);
+                        }
+                    }
+                    self.device.on_sync(&mut self.core, now);
                 }
-            }
+                PdoEvent::Rpdo(n) => self.device.on_rpdo(&mut self.core, n, now),
+                PdoEvent::RpdoRtr(n) => self.device.on_rpdo_rtr(&mut self.core, n, now),
+            },
         }
     }
 
@@ -377,6 +398,32 @@ impl<D: Device> Node<D> {
         earliest(next, self.device.next_deadline())
     }
 
+    /// Every identifier the node must receive, for the shell's hardware filters: LSS 7E5h (if
+    /// the device has LSS) and, with a node-ID, NMT 000h, SYNC (1005h), SDO 600h + node-ID,
+    /// node guarding 700h + node-ID, the valid RPDOs and the valid TPDOs that accept a
+    /// remote request. It changes only when [`Node::rx_ids_generation`] does.
+    pub fn rx_ids(&self) -> heapless::Vec<CanId, 16> {
+        let mut ids = heapless::Vec::new();
+        let core = &self.core;
+        if core.lss.enabled() {
+            let _ = ids.push(CanId::Std(lss::RX_ID));
+        }
+        if core.configured() {
+            let id = core.node_id as u16;
+            for x in [0x000, 0x600 + id, 0x700 + id] {
+                let _ = ids.push(CanId::Std(x));
+            }
+            core.pdo.rx_ids(&mut ids);
+        }
+        ids
+    }
+
+    /// A number that changes whenever [`Node::rx_ids`] may have changed (node-ID, 1005h, PDO
+    /// COB-IDs, every reset): the shell reprograms its filters when it sees a new one.
+    pub fn rx_ids_generation(&self) -> u32 {
+        self.core.pdo.generation()
+    }
+
     /// The shell has finished (or failed) the [`Output::Store`] it was given.
     /// The result goes to whoever asked: LSS store configuration, else the SDO server (1010h).
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
@@ -418,6 +465,7 @@ impl<D: Device> Node<D> {
             NmtCommand::ResetNode => self.reset(ResetKind::Node, now),
             NmtCommand::ResetCommunication => self.reset(ResetKind::Communication, now),
         }
+        pdo::on_state(&mut self.core, now);
     }
 
     fn reset(&mut self, kind: ResetKind, now: Instant) {
@@ -426,6 +474,8 @@ impl<D: Device> Node<D> {
         let device = &self.device;
         storage::reload(&mut self.core, kind, |e, groups| device.restores(e, groups));
         self.activate_pending();
+        // The reloaded PDO configuration and node-ID count from now (filters, caches).
+        pdo::reset(&mut self.core, now);
         lss::reset(&mut self.core);
         emcy::reset(&mut self.core);
         self.device.on_reset(&mut self.core, kind, now);

@@ -424,7 +424,9 @@ impl Od {
     /// Position of (index, sub), or the abort code an SDO client gets for it:
     /// 06020000h when no entry has that index, 06090011h when the index exists but not the sub.
     pub fn find(&self, index: u16, sub: u8) -> Result<usize, Abort> {
-        match self.table.binary_search_by(|e| (e.index, e.sub).cmp(&(index, sub))) {
+        // One integer compare per step: (index, sub) packed as index << 8 | sub.
+        let key = (index as u32) << 8 | sub as u32;
+        match self.table.binary_search_by_key(&key, |e| (e.index as u32) << 8 | e.sub as u32) {
             Ok(pos) => Ok(pos),
             Err(at) => {
                 let near = |p: usize| self.table.get(p).is_some_and(|e| e.index == index);
@@ -530,10 +532,10 @@ impl Od {
         if let Some((lo, hi)) = e.limits {
             let v = e.dtype.to_i64(value);
             if v < lo {
-                return Err(Abort::VALUE_LOW);
+                return Err(Abort::INVALID_VALUE);
             }
             if v > hi {
-                return Err(Abort::VALUE_HIGH);
+                return Err(Abort::INVALID_VALUE);
             }
         }
         if e.dtype == DataType::Boolean && value > 1 {
@@ -587,8 +589,8 @@ mod tests {
         assert_eq!(od.check_write(2, &[1, 0, 0]), Err(Abort::LENGTH_HIGH));
         assert_eq!(od.check_write(2, &[1]), Err(Abort::LENGTH_LOW));
         assert_eq!(od.check_write(2, &[100, 0]), Ok(100));
-        assert_eq!(od.check_write(6, &(-11i32).to_le_bytes()), Err(Abort::VALUE_LOW));
-        assert_eq!(od.check_write(6, &11i32.to_le_bytes()), Err(Abort::VALUE_HIGH));
+        assert_eq!(od.check_write(6, &(-11i32).to_le_bytes()), Err(Abort::INVALID_VALUE));
+        assert_eq!(od.check_write(6, &11i32.to_le_bytes()), Err(Abort::INVALID_VALUE));
         assert_eq!(od.check_write(6, &(-10i32).to_le_bytes()), Ok(-10i32 as u32));
         assert_eq!(od.check_read(7), Err(Abort::WRITE_ONLY));
         assert_eq!(od.get(6), -5i32 as u32);

@@ -54,6 +54,12 @@ pub fn devices() -> Vec<(EdsInfo, &'static [Entry])> {
     // The redundant version's second encoder differs only in the 5F0Ah.01 default (2): one
     // file serves both, as configurators take the node-ID from the network.
     let sgh50 = TableOnly(od_core::devices::sgh50::TABLE);
+    // The WV5800M file describes the 12-bit multiturn WV5800M; the other seven variants differ
+    // in 1000h, 1008h and the range-dependent defaults and limits only.
+    let wv5800m = TableOnly(od_core::devices::wv5800m::table_of(od_core::devices::wv5800m::Variant {
+        model: od_core::devices::wv5800m::Model::Wv,
+        turns: od_core::devices::wv5800m::Turns::Multi12,
+    }));
     vec![
         (
         EdsInfo {
@@ -86,6 +92,22 @@ pub fn devices() -> Vec<(EdsInfo, &'static [Entry])> {
             lss: sgh50.has_lss(),
         },
         sgh50.table(),
+    ),
+    (
+        EdsInfo {
+            file_name: "WV5800M.eds",
+            description: "SIKO WV5800M absolute rotary encoder, 12-bit multiturn, CANopen (CiA 301, CiA 406, CiA 305)",
+            file_version: 1,
+            file_revision: 0,
+            creation_date: "11-24-2026",
+            creation_time: "12:00PM",
+            created_by: "SIKO GmbH",
+            vendor_name: "SIKO GmbH",
+            order_code: "WV5800M",
+            bitrates: rates(&wv5800m),
+            lss: wv5800m.has_lss(),
+        },
+        wv5800m.table(),
     )]
 }
 

@@ -5,6 +5,8 @@ pub mod bus;
 pub mod eds;
 pub mod encoder;
 pub mod flash;
+pub mod segment;
+pub mod sim;
 
 use od_core::node::Device;
 use od_core::od::Entry;

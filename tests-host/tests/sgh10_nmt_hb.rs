@@ -10,6 +10,8 @@
 
 use std::collections::VecDeque;
 
+use proptest::prelude::*;
+
 use od_core::emcy::{self, COMMUNICATION, MANUFACTURER};
 use od_core::node::Output;
 use od_core::od::{CoreHook, Hook};
@@ -599,4 +601,65 @@ fn stored_history_is_there_after_power_on() {
     rig.expect(0x081, &[0x05, 0xFF, 0x81, 0, 0, 0, 0, 0]);
     assert_eq!(rig.upload(0, 0x1003, 0), Ok(3));
     assert_eq!(rig.upload(0, 0x1003, 3), Ok(0x8120));
+}
+
+// ---------------------------------------------------------------- Model check
+
+/// Identifiers of services outside this model: SYNC and the TPDO remote requests (PDOs),
+/// SDO requests, LSS.
+fn other_service(id: u16) -> bool {
+    matches!(id, 0x080 | 0x180..=0x2FF | 0x600..=0x67F | 0x7E5)
+}
+
+/// A frame a master or another node might put on the bus near the NMT/guarding identifiers.
+fn any_frame() -> impl Strategy<Value = Frame> {
+    let other = (0u16..0x800).prop_filter("another service", |id| !other_service(*id));
+    let id = prop_oneof![Just(0x000u16), Just(0x701), Just(0x702), Just(0x081), other];
+    (id, any::<bool>(), proptest::collection::vec(any::<u8>(), 0..=8), any::<bool>()).prop_map(
+        |(id, rtr, data, nmt_like)| {
+            if rtr {
+                Frame::remote(CanId::Std(id), data.len() as u8)
+            } else if nmt_like && id == 0 {
+                // Mostly well-formed NMT commands, to node 1, 2 or everyone.
+                let cs = [0x01, 0x02, 0x80, 0x81, 0x82][data.first().copied().unwrap_or(0) as usize % 5];
+                Frame::std(0, &[cs, data.get(1).copied().unwrap_or(0) % 3])
+            } else {
+                Frame::std(id, &data)
+            }
+        },
+    )
+}
+
+proptest! {
+    /// Any sequence of frames: the node follows the CiA 301 NMT state machine, answers every
+    /// guarding RTR with its state and the alternating toggle, boots up after each reset, and
+    /// sends nothing else (no heartbeat configured, no errors).
+    #[test]
+    fn nmt_and_guarding_follow_the_model(frames in proptest::collection::vec(any_frame(), 1..60)) {
+        let mut rig = node1();
+        let mut state = NmtState::PreOperational;
+        let mut toggle = false;
+        for f in frames {
+            rig.send(f);
+            if f.id == CanId::Std(0) && !f.rtr && f.len == 2 && (f.data[1] == 0 || f.data[1] == 1) {
+                match f.data[0] {
+                    0x01 => state = NmtState::Operational,
+                    0x02 => state = NmtState::Stopped,
+                    0x80 => state = NmtState::PreOperational,
+                    0x81 | 0x82 => {
+                        rig.expect(0x701, &[0x00]);
+                        state = NmtState::PreOperational;
+                        toggle = false;
+                    }
+                    _ => {}
+                }
+            }
+            if f.id == CanId::Std(0x701) && f.rtr {
+                rig.expect(0x701, &[(toggle as u8) << 7 | state.code()]);
+                toggle = !toggle;
+            }
+            prop_assert_eq!(rig.state(0), state);
+            rig.silence();
+        }
+    }
 }

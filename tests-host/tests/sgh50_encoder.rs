@@ -5,7 +5,7 @@
 use od_core::devices::sgh50::{Sgh50, Variant};
 use od_core::encoder::{Encoder, SensorFault};
 use od_core::node::BusEvent;
-use od_core::{Bitrate, Instant, Node};
+use od_core::{Bitrate, Frame, Instant, Node};
 use proptest::prelude::*;
 use tests_host::bus::Bus;
 use tests_host::encoder::{direct_write, value, Sensed, Sensor};
@@ -13,9 +13,12 @@ use tests_host::encoder::{direct_write, value, Sensed, Sensor};
 /// The largest valid reading: 73839 steps and the 99 µm below the next one.
 const MAX_UM: u32 = 73839 * 100 + 99;
 
+const SERIAL: u32 = 0x0012_D687;
+
 fn sgh50(um: u32) -> (Bus, Sensor) {
     let sensor = Sensor::new(um);
-    let node = Node::new(Sgh50::new(Variant::Single), 1, Bitrate::K500);
+    let mut node = Node::new(Sgh50::new(Variant::Single), 1, Bitrate::K500);
+    od_core::encoder::program_serial(&mut node.split().1.od, SERIAL);
     let mut bus = Bus::new();
     bus.add(Sensed::new(node, sensor.clone()));
     bus.expect(0x701, &[0x00]);
@@ -64,6 +67,58 @@ fn speed_of_the_sgh50_in_mm_per_s() {
     sensor.move_at(-1_234_000);
     bus.advance(300);
     assert_eq!(value(bus.station(0).core(), 0x6030, 1), -1234);
+}
+
+#[test]
+fn m5_recovered_from_bus_off() {
+    let (mut bus, sensor) = sgh50(10_000);
+    sensor.bus_event(BusEvent::BusOff);
+    bus.advance(0);
+    bus.expect_silence();
+    sensor.bus_event(BusEvent::BusOffRecovered);
+    bus.advance(0);
+    bus.expect(0x081, &[0x40, 0x81, 0x11, 0x00, 0x00, 0x00, 0x00, 0x00]);
+    bus.expect(0x081, &[0x00; 8]);
+    bus.expect_silence();
+}
+
+#[test]
+fn n8_n9_node_guarding_answers_with_toggle_and_state() {
+    let (mut bus, _) = sgh50(10_000);
+    let rtr = Frame { rtr: true, ..Frame::std(0x701, &[0x00]) };
+    bus.send(rtr);
+    bus.expect(0x701, &[0x7F]);
+    bus.send(rtr);
+    bus.expect(0x701, &[0xFF]);
+    bus.send(Frame::std(0x000, &[0x01, 0x01]));
+    bus.send(rtr);
+    bus.expect(0x701, &[0x05]);
+    bus.send(rtr);
+    bus.expect(0x701, &[0x85]);
+    bus.send(Frame::std(0x000, &[0x02, 0x01]));
+    bus.send(rtr);
+    bus.expect(0x701, &[0x04]);
+    bus.send(rtr);
+    bus.expect(0x701, &[0x84]);
+}
+
+#[test]
+fn l15_to_l23_lss_inquiries_answer_the_sgh50_address() {
+    let (mut bus, _) = sgh50(10_000);
+    bus.send(Frame::std(0x7E5, &[0x04, 0x01, 0, 0, 0, 0, 0, 0]));
+    bus.expect_silence();
+    for (cs, answer) in [
+        (0x5A, [0x5A, 0x95, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00]),
+        (0x5B, [0x5B, 0xFF, 0xFF, 0xFF, 0xFF, 0x00, 0x00, 0x00]),
+        (0x5C, [0x5C, 0xFF, 0xFF, 0xFF, 0xFF, 0x00, 0x00, 0x00]),
+        (0x5D, [0x5D, 0x87, 0xD6, 0x12, 0x00, 0x00, 0x00, 0x00]),
+        (0x5E, [0x5E, 0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+    ] {
+        bus.send(Frame::std(0x7E5, &[cs, 0, 0, 0, 0, 0, 0, 0]));
+        bus.expect(0x7E4, &answer);
+    }
+    bus.send(Frame::std(0x7E5, &[0x04, 0x00, 0, 0, 0, 0, 0, 0]));
+    bus.expect_silence();
 }
 
 fn device_at(um: u32) -> (Node<Sgh50>, Instant) {

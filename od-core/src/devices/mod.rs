@@ -2,3 +2,4 @@
 
 pub mod sgh10;
 pub mod sgh50;
+pub mod wv5800m;

@@ -17,6 +17,7 @@
 //! The decisions behind the semantics are in `docs/decisions.md`, "Encoder profile (CiA 406)".
 
 pub mod linear;
+pub mod rotary;
 
 use crate::emcy;
 use crate::node::{Core, Device};

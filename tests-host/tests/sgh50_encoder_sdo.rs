@@ -31,8 +31,8 @@ fn e1_calibrate_to_510_and_read_it_back() {
     bus.send(Frame::std(0x601, &[0x40, 0x20, 0x60, 0x01, 0x00, 0x00, 0x00, 0x00]));
     bus.expect(0x581, &[0x43, 0x20, 0x60, 0x01, 0xFE, 0x01, 0x00, 0x00]);
     assert_eq!(value(bus.station(0).core(), 0x6509, 0), 20_000 - 510);
-    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, 73840, 0x0609_0031);
-    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, (-73840i32) as u32, 0x0609_0032);
+    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, 73840, 0x0609_0030);
+    sdo_write_abort(&mut bus, 1, 0x6010, 1, 4, (-73840i32) as u32, 0x0609_0030);
 }
 
 #[test]
@@ -58,8 +58,8 @@ fn work_areas_raise_ff15h_and_ff16h() {
     sensor.set(4_000_000);
     bus.advance(1);
     bus.expect(0x081, &[0x00, 0x00, 0x81, 0, 0, 0, 0, 0]);
-    sdo_write_abort(&mut bus, 1, 0x6401, 1, 4, (-147679i32) as u32, 0x0609_0032);
-    sdo_write_abort(&mut bus, 1, 0x6402, 1, 4, 221518, 0x0609_0031);
+    sdo_write_abort(&mut bus, 1, 0x6401, 1, 4, (-147679i32) as u32, 0x0609_0030);
+    sdo_write_abort(&mut bus, 1, 0x6402, 1, 4, 221518, 0x0609_0030);
 }
 
 #[test]
@@ -68,7 +68,7 @@ fn bus_termination_5f09h_is_0_or_1() {
     assert_eq!(sdo_read(&mut bus, 1, 0x5F09, 0), 0);
     sdo_write(&mut bus, 1, 0x5F09, 0, 1, 1);
     assert_eq!(sdo_read(&mut bus, 1, 0x5F09, 0), 1);
-    sdo_write_abort(&mut bus, 1, 0x5F09, 0, 1, 2, 0x0609_0031);
+    sdo_write_abort(&mut bus, 1, 0x5F09, 0, 1, 2, 0x0609_0030);
 }
 
 #[test]
@@ -99,14 +99,15 @@ fn identity_and_profile_objects_read_as_printed() {
     sdo_write_abort(&mut bus, 1, 0x1800, 4, 1, 0, 0x0609_0011);
     sdo_write_abort(&mut bus, 1, 0x1801, 6, 1, 0, 0x0609_0011);
     sdo_write_abort(&mut bus, 1, 0x6003, 0, 4, 0, 0x0602_0000);
-    sdo_write_abort(&mut bus, 1, 0x1800, 2, 1, 0xFC, 0x0609_0032);
+    sdo_write_abort(&mut bus, 1, 0x1800, 2, 1, 0xFC, 0x0609_0030);
 }
 
 #[test]
 fn every_entry_reads_its_declared_default_at_power_on() {
     let (mut bus, _) = sgh50(Variant::Single, 0);
     for e in sgh50::TABLE {
-        if !e.access.readable() || e.size() > 4 || e.size() == 0 || (e.index == 0x1003 && e.sub > 0) {
+        let string = matches!(e.default, od_core::od::Default::Str(_));
+        if !e.access.readable() || string || e.size() > 4 || e.size() == 0 || (e.index == 0x1003 && e.sub > 0) {
             continue;
         }
         let v = sdo_read(&mut bus, 1, e.index, e.sub);
@@ -126,4 +127,24 @@ fn restore_on_the_second_encoder_keeps_node_id_2() {
     bus.send(Frame::std(0x000, &[0x81, 0x09]));
     bus.expect(0x702, &[0x00]);
     assert_eq!(sdo_read(&mut bus, 2, 0x5F0A, 1), 2);
+}
+
+#[test]
+fn s1_s2_s4_store_all_and_read_1010h() {
+    let (mut bus, _) = sgh50(Variant::Single, 0);
+    bus.send(Frame::std(0x601, &[0x23, 0x10, 0x10, 0x01, 0x73, 0x61, 0x76, 0x65]));
+    bus.expect(0x581, &[0x60, 0x10, 0x10, 0x01, 0x00, 0x00, 0x00, 0x00]);
+    bus.send(Frame::std(0x601, &[0x40, 0x10, 0x10, 0x01, 0x00, 0x00, 0x00, 0x00]));
+    bus.expect(0x581, &[0x43, 0x10, 0x10, 0x01, 0x01, 0x00, 0x00, 0x00]);
+}
+
+#[test]
+fn n7_heartbeat_of_the_sgh50() {
+    let (mut bus, _) = sgh50(Variant::Single, 0);
+    sdo_write(&mut bus, 1, 0x1017, 0, 2, 100);
+    bus.advance(100);
+    bus.expect(0x701, &[0x7F]);
+    bus.send(Frame::std(0x000, &[0x01, 0x01]));
+    bus.advance(100);
+    bus.expect(0x701, &[0x05]);
 }

@@ -1,0 +1,692 @@
+//! WV5800M / WH5800M absolute rotary encoder, singleturn or 4/8/12-bit multiturn: the object
+//! dictionary of its manual (SIKO art. no. 90107, mod. status 170/20), every row, with the
+//! manual's types, access rights, defaults and limits, and the device behaviour.
+//!
+//! The manual covers two mechanical versions (WV, WH: 1008h) and four measuring ranges
+//! (1000h, 6002h, 6502h, the 2001h/6003h/6401h/6402h ranges and 650Ah.03). Each of the eight
+//! combinations has its own `static` table, built by one `const fn` so the rows are written
+//! once. Only [`Wv5800m::new`] (inlined) names them and the device keeps the chosen one, so a
+//! firmware that builds one constant variant lets the linker drop the other seven.
+//!
+//! The position pipeline is [`crate::encoder::rotary`]; the CiA 406 blocks (speed windows, EMCY
+//! edges, alarm words, CAN diagnosis) are shared with the linear encoders. The decisions are in
+//! `docs/decisions.md`, "WV5800M".
+
+use crate::abort::Abort;
+use crate::encoder::linear::{CanDiagnosis, EMCY_AREA_1, EMCY_AREA_2, EMCY_BUS_OFF, EMCY_PASSIVE, EMCY_POSITION};
+use crate::encoder::rotary::{
+    self, limit_speed, over_speed, raw_delta, speed_value, work_area_state, Scaling, DIRECTION_BIT, MAX_APU,
+    PHYSICAL_STEPS, SCALING_BIT,
+};
+use crate::encoder::{
+    alarms, operating_status, warnings, Condition, EmcyConditions, Encoder, SensorFault, SpeedEstimator, WorkAreas,
+};
+use crate::guarding;
+use crate::led::{LedInputs, Leds, WARNING_LIMIT};
+use crate::lss::LssState;
+use crate::node::{BusEvent, Core, Device, ResetKind};
+use crate::od::{Access::*, CoreHook, DataType::*, Entry, Group, Hook, Od};
+use crate::pdo;
+use crate::time::Instant;
+
+/// Device-specific write hooks of the WV5800M (`Hook::Device(n)`).
+pub mod hooks {
+    /// 6000h operating parameters: counting direction.
+    pub const OPERATING_PARAMETERS: u8 = 1;
+    /// 6001h measuring steps per revolution: rescales, sets 6002h and 650Ah.03.
+    pub const APU: u8 = 2;
+    /// 6002h total measuring range: only APU × revolutions.
+    pub const TOTAL_RANGE: u8 = 3;
+    /// 6003h calibration value, 6401h/6402h work-area limits: `0 ..= 6002h − 1`.
+    pub const IN_RANGE: u8 = 4;
+    /// 2001h application offset: moves the position, mirrored in 650Ah.01.
+    pub const OFFSET: u8 = 5;
+    /// 2002h: calibrate ("zero" the measured value).
+    pub const CALIBRATE: u8 = 6;
+    /// 2003h/2004h limit speeds.
+    pub const LIMIT_SPEED: u8 = 7;
+    /// 6200h cycle timer and 1800h.05 event timer: one value in two objects.
+    pub const CYCLE_TIMER: u8 = 8;
+}
+
+const COMM: Group = Group::Comm;
+const APP: Group = Group::App;
+const MANUF: Group = Group::Manuf;
+const fn core(h: CoreHook) -> Hook {
+    Hook::Core(h)
+}
+const fn dev(h: u8) -> Hook {
+    Hook::Device(h)
+}
+
+/// Default node-ID ex works.
+pub const DEFAULT_NODE_ID: u8 = 1;
+/// Default 5F0Ah.02 bit-rate code (5 = 500 kbit/s).
+pub const DEFAULT_BITRATE_CODE: u8 = 5;
+/// Entries in each WV5800M dictionary.
+pub const ENTRIES: usize = 102;
+/// Sensor sample period (the manual names none).
+pub const SAMPLE_PERIOD_US: u32 = 1_000;
+
+/// The mechanical version: the manual describes no difference but the name in 1008h.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Model {
+    /// WV5800M.
+    Wv,
+    /// WH5800M.
+    Wh,
+}
+
+impl Model {
+    /// The manufacturer device name (1008h).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Model::Wv => "WV5800M",
+            Model::Wh => "WH5800M",
+        }
+    }
+}
+
+/// The measuring range: singleturn or 4, 8, 12-bit multiturn.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Turns {
+    /// Singleturn (1 revolution).
+    Single,
+    /// 4-bit multiturn (16 revolutions).
+    Multi4,
+    /// 8-bit multiturn (256 revolutions).
+    Multi8,
+    /// 12-bit multiturn (4096 revolutions).
+    Multi12,
+}
+
+impl Turns {
+    /// Distinguishable revolutions (6502h).
+    pub const fn revolutions(self) -> u32 {
+        match self {
+            Turns::Single => 1,
+            Turns::Multi4 => 16,
+            Turns::Multi8 => 256,
+            Turns::Multi12 => 4096,
+        }
+    }
+
+    /// Device type (1000h): 0x00010196 singleturn, 0x00020196 multiturn.
+    pub const fn device_type(self) -> u32 {
+        match self {
+            Turns::Single => 0x0001_0196,
+            _ => 0x0002_0196,
+        }
+    }
+}
+
+/// A product variant: version and measuring range.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Variant {
+    /// WV or WH.
+    pub model: Model,
+    /// Measuring range.
+    pub turns: Turns,
+}
+
+/// The dictionary of a `model` with `turns`.
+const fn table(model: Model, turns: Turns) -> [Entry; ENTRIES] {
+    let n = turns.revolutions() as i64;
+    // Raw range = default total range (APU 16384); the largest total range (APU 65535).
+    let r = PHYSICAL_STEPS as i64 * n;
+    let max_pos = MAX_APU as i64 * n - 1;
+    [
+        Entry::var(0x1000, "Device type", Unsigned32, Ro, turns.device_type()),
+        Entry::var(0x1001, "Error register", Unsigned8, Ro, 0),
+        Entry::var(0x1002, "Manufacturer status register", Unsigned32, Ro, 0),
+        Entry::array(0x1003, "Pre-defined error field", 8, Rw)
+            .named("Number of errors")
+            .with_default(0)
+            .group(COMM)
+            .hook(core(CoreHook::ErrorHistory)),
+        Entry::member(0x1003, 1, "Standard error field 1", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 2, "Standard error field 2", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 3, "Standard error field 3", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 4, "Standard error field 4", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 5, "Standard error field 5", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 6, "Standard error field 6", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 7, "Standard error field 7", Unsigned32, Ro, 0).group(COMM),
+        Entry::member(0x1003, 8, "Standard error field 8", Unsigned32, Ro, 0).group(COMM),
+        Entry::var(0x1005, "COB-ID SYNC message", Unsigned32, Rw, 0x80).group(COMM).hook(core(CoreHook::SyncCobId)),
+        Entry::string(0x1008, "Manufacturer device name", model.name()),
+        Entry::string(0x1009, "Manufacturer hardware version", "V001"),
+        Entry::string(0x100A, "Manufacturer software version", "V001"),
+        Entry::var(0x100C, "Guard time", Unsigned16, Rw, 0).group(COMM).hook(core(CoreHook::Guarding)),
+        Entry::var(0x100D, "Life time factor", Unsigned8, Rw, 0).group(COMM).hook(core(CoreHook::Guarding)),
+        Entry::array(0x1010, "Store parameters", 4, Const),
+        Entry::member(0x1010, 1, "Save all parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
+        Entry::member(0x1010, 2, "Save communication parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
+        Entry::member(0x1010, 3, "Save application parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
+        Entry::member(0x1010, 4, "Save manufacturer parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
+        Entry::array(0x1011, "Restore default parameters", 4, Const),
+        Entry::member(0x1011, 1, "Restore all default parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Restore)),
+        Entry::member(0x1011, 2, "Restore communication default parameters", Unsigned32, Rw, 1)
+            .hook(core(CoreHook::Restore)),
+        Entry::member(0x1011, 3, "Restore application default parameters", Unsigned32, Rw, 1)
+            .hook(core(CoreHook::Restore)),
+        Entry::member(0x1011, 4, "Restore manufacturer default parameters", Unsigned32, Rw, 1)
+            .hook(core(CoreHook::Restore)),
+        Entry::var(0x1014, "COB-ID EMCY", Unsigned32, Rw, 0)
+            .plus_node_id(0x80)
+            .group(COMM)
+            .hook(core(CoreHook::EmcyCobId)),
+        Entry::var(0x1017, "Producer heartbeat time", Unsigned16, Rw, 0)
+            .group(COMM)
+            .hook(core(CoreHook::HeartbeatTime)),
+        Entry::record(0x1018, "Identity object", 4, Const),
+        Entry::member(0x1018, 1, "Vendor-ID", Unsigned32, Ro, 0x0000_0195),
+        Entry::member(0x1018, 2, "Product code", Unsigned32, Ro, 0xFFFF_FFFF),
+        Entry::member(0x1018, 3, "Revision number", Unsigned32, Ro, 0xFFFF_FFFF),
+        Entry::member(0x1018, 4, "Serial number", Unsigned32, Ro, 1).group(Group::Factory),
+        Entry::record(0x1200, "SDO server parameter", 2, Const),
+        Entry::member(0x1200, 1, "COB-ID client to server (rx)", Unsigned32, Ro, 0).plus_node_id(0x600),
+        Entry::member(0x1200, 2, "COB-ID server to client (tx)", Unsigned32, Ro, 0).plus_node_id(0x580),
+        Entry::record(0x1800, "TPDO1 communication parameter", 5, Const),
+        Entry::member(0x1800, 1, "COB-ID used by TPDO1", Unsigned32, Rw, 0)
+            .plus_node_id(0x180)
+            .group(COMM)
+            .hook(core(CoreHook::PdoCobId)),
+        Entry::member(0x1800, 2, "Transmission type", Unsigned8, Rw, 0xFE)
+            .group(COMM)
+            .hook(core(CoreHook::PdoTransmissionType)),
+        Entry::member(0x1800, 3, "Inhibit time", Unsigned16, Ro, 0),
+        Entry::member(0x1800, 5, "Event timer", Unsigned16, Rw, 0).group(COMM).hook(dev(hooks::CYCLE_TIMER)),
+        Entry::record(0x1801, "TPDO2 communication parameter", 5, Const),
+        Entry::member(0x1801, 1, "COB-ID used by TPDO2", Unsigned32, Rw, 0)
+            .plus_node_id(0x280)
+            .group(COMM)
+            .hook(core(CoreHook::PdoCobId)),
+        Entry::member(0x1801, 2, "Transmission type", Unsigned8, Rw, 0x01)
+            .group(COMM)
+            .hook(core(CoreHook::PdoTransmissionType)),
+        Entry::member(0x1801, 3, "Inhibit time", Unsigned16, Ro, 0),
+        Entry::member(0x1801, 5, "Event timer", Unsigned16, Ro, 0),
+        Entry::record(0x1A00, "TPDO1 mapping parameter", 2, Const).named("Number of mapped objects"),
+        Entry::member(0x1A00, 1, "Mapped object 1", Unsigned32, Ro, 0x6004_0020),
+        Entry::member(0x1A00, 2, "Mapped object 2", Unsigned32, Ro, 0x6030_0110),
+        Entry::record(0x1A01, "TPDO2 mapping parameter", 2, Const).named("Number of mapped objects"),
+        Entry::member(0x1A01, 1, "Mapped object 1", Unsigned32, Ro, 0x6004_0020),
+        Entry::member(0x1A01, 2, "Mapped object 2", Unsigned32, Ro, 0x6030_0110),
+        Entry::var(0x2001, "Application offset", Integer32, Rw, 0)
+            .range(-r, r - 1)
+            .group(MANUF)
+            .hook(dev(hooks::OFFSET)),
+        Entry::var(0x2002, "Calibrate encoder value", Unsigned8, Wo, 0).range(1, 1).hook(dev(hooks::CALIBRATE)),
+        Entry::var(0x2003, "Limit speed low", Integer16, Rw, 0).group(MANUF).hook(dev(hooks::LIMIT_SPEED)),
+        Entry::var(0x2004, "Limit speed high", Integer16, Rw, 0).group(MANUF).hook(dev(hooks::LIMIT_SPEED)),
+        Entry::var(0x5000, "Diagnosis CAN bus error", Unsigned32, Ro, 0),
+        Entry::record(0x5F0A, "Node-ID and baud rate", 2, Const),
+        Entry::member(0x5F0A, 1, "Node-ID", Unsigned8, Rw, DEFAULT_NODE_ID as u32)
+            .range(1, 127)
+            .group(MANUF)
+            .hook(core(CoreHook::PendingNodeId)),
+        Entry::member(0x5F0A, 2, "Baud rate", Unsigned8, Rw, DEFAULT_BITRATE_CODE as u32)
+            .range(1, 7)
+            .group(MANUF)
+            .hook(core(CoreHook::PendingBitrate)),
+        Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, SCALING_BIT as u32)
+            .group(APP)
+            .hook(dev(hooks::OPERATING_PARAMETERS)),
+        Entry::var(0x6001, "Measuring steps per revolution", Unsigned32, Rw, PHYSICAL_STEPS)
+            .range(1, MAX_APU as i64)
+            .group(APP)
+            .hook(dev(hooks::APU)),
+        Entry::var(0x6002, "Total measuring range in measuring steps", Unsigned32, Rw, r as u32)
+            .range(1, max_pos + 1)
+            .group(APP)
+            .hook(dev(hooks::TOTAL_RANGE)),
+        Entry::var(0x6003, "Preset value", Integer32, Rw, 0).range(0, max_pos).group(APP).hook(dev(hooks::IN_RANGE)),
+        Entry::var(0x6004, "Position value", Unsigned32, Ro, 0).pdo(),
+        Entry::var(0x600C, "Position raw value", Unsigned32, Ro, 0).pdo(),
+        Entry::array(0x6030, "Speed value", 1, Ro),
+        Entry::member(0x6030, 1, "Speed value channel 1", Integer16, Ro, 0).pdo(),
+        Entry::record(0x6031, "Speed parameters", 4, Ro),
+        Entry::member(0x6031, 1, "Speed source selector", Unsigned8, Rw, 2).range(2, 2).group(APP),
+        Entry::member(0x6031, 2, "Speed integration time", Unsigned16, Ro, 100).group(APP),
+        Entry::member(0x6031, 3, "Speed multiplier", Unsigned16, Rw, 1).range(1, 1).group(APP),
+        Entry::member(0x6031, 4, "Speed divisor", Unsigned16, Rw, 1).range(1, 1).group(APP),
+        Entry::var(0x6200, "Cyclic timer", Unsigned16, Rw, 0).group(APP).hook(dev(hooks::CYCLE_TIMER)),
+        Entry::array(0x6400, "Area state register", 2, Ro),
+        Entry::member(0x6400, 1, "Work area state channel 1", Unsigned8, Ro, 0),
+        Entry::member(0x6400, 2, "Work area state channel 2", Unsigned8, Ro, 0),
+        Entry::array(0x6401, "Work area low limit", 2, Ro),
+        Entry::member(0x6401, 1, "Work area low limit channel 1", Integer32, Rw, 0)
+            .range(0, max_pos)
+            .group(APP)
+            .hook(dev(hooks::IN_RANGE)),
+        Entry::member(0x6401, 2, "Work area low limit channel 2", Integer32, Rw, 0)
+            .range(0, max_pos)
+            .group(APP)
+            .hook(dev(hooks::IN_RANGE)),
+        Entry::array(0x6402, "Work area high limit", 2, Ro),
+        Entry::member(0x6402, 1, "Work area high limit channel 1", Integer32, Rw, 0)
+            .range(0, max_pos)
+            .group(APP)
+            .hook(dev(hooks::IN_RANGE)),
+        Entry::member(0x6402, 2, "Work area high limit channel 2", Integer32, Rw, 0)
+            .range(0, max_pos)
+            .group(APP)
+            .hook(dev(hooks::IN_RANGE)),
+        Entry::var(0x6500, "Operating status", Unsigned16, Ro, SCALING_BIT as u32),
+        Entry::var(0x6501, "Single-turn resolution", Unsigned32, Ro, PHYSICAL_STEPS),
+        Entry::var(0x6502, "Number of distinguishable revolutions", Unsigned16, Ro, n as u32),
+        Entry::var(0x6503, "Alarms", Unsigned16, Ro, 0),
+        Entry::var(0x6504, "Supported alarms", Unsigned16, Ro, 0x3001),
+        Entry::var(0x6505, "Warnings", Unsigned16, Ro, 0),
+        Entry::var(0x6506, "Supported warnings", Unsigned16, Ro, 0x0001),
+        Entry::var(0x6507, "Profile and software version", Unsigned32, Ro, 0x0100_0302),
+        Entry::var(0x6508, "Operating time", Unsigned32, Ro, 0xFFFF_FFFF),
+        Entry::var(0x6509, "Offset value", Integer32, Ro, 0).group(APP),
+        Entry::array(0x650A, "Module identification", 3, Ro),
+        Entry::member(0x650A, 1, "Manufacturer offset value", Integer32, Ro, 0),
+        Entry::member(0x650A, 2, "Manufacturer minimum position value", Integer32, Ro, 0),
+        Entry::member(0x650A, 3, "Manufacturer maximum position value", Integer32, Ro, (r - 1) as u32),
+        Entry::var(0x650B, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
+        Entry::var(0x650D, "Absolute accuracy", Unsigned8, Ro, 0x08),
+        Entry::var(0x650E, "Device functionality", Unsigned32, Ro, 0x0000_0002),
+    ]
+}
+
+static WV_1: [Entry; ENTRIES] = table(Model::Wv, Turns::Single);
+static WV_16: [Entry; ENTRIES] = table(Model::Wv, Turns::Multi4);
+static WV_256: [Entry; ENTRIES] = table(Model::Wv, Turns::Multi8);
+static WV_4096: [Entry; ENTRIES] = table(Model::Wv, Turns::Multi12);
+static WH_1: [Entry; ENTRIES] = table(Model::Wh, Turns::Single);
+static WH_16: [Entry; ENTRIES] = table(Model::Wh, Turns::Multi4);
+static WH_256: [Entry; ENTRIES] = table(Model::Wh, Turns::Multi8);
+static WH_4096: [Entry; ENTRIES] = table(Model::Wh, Turns::Multi12);
+
+/// The dictionary of `variant`, sorted by (index, sub).
+#[inline]
+pub const fn table_of(variant: Variant) -> &'static [Entry] {
+    match (variant.model, variant.turns) {
+        (Model::Wv, Turns::Single) => &WV_1,
+        (Model::Wv, Turns::Multi4) => &WV_16,
+        (Model::Wv, Turns::Multi8) => &WV_256,
+        (Model::Wv, Turns::Multi12) => &WV_4096,
+        (Model::Wh, Turns::Single) => &WH_1,
+        (Model::Wh, Turns::Multi4) => &WH_16,
+        (Model::Wh, Turns::Multi8) => &WH_256,
+        (Model::Wh, Turns::Multi12) => &WH_4096,
+    }
+}
+
+/// EMCY FF12h: velocity error, the maximum speed (6000 rpm) exceeded.
+pub const EMCY_VELOCITY: Condition = Condition { code: 0xFF12, register: 0x80 };
+/// EMCY FF13h: error limit speed low (below 2003h).
+pub const EMCY_LIMIT_LOW: Condition = Condition { code: 0xFF13, register: 0x80 };
+/// EMCY FF14h: error limit speed high (above 2004h).
+pub const EMCY_LIMIT_HIGH: Condition = Condition { code: 0xFF14, register: 0x80 };
+
+// Condition numbers in `EmcyConditions`.
+const C_POSITION: usize = 0;
+const C_AREA_1: usize = 1;
+const C_AREA_2: usize = 2;
+const C_VELOCITY: usize = 3;
+const C_LIMIT_LOW: usize = 4;
+const C_LIMIT_HIGH: usize = 5;
+const C_PASSIVE: usize = 6;
+const C_BUS_OFF: usize = 7;
+
+/// A WV5800M / WH5800M.
+#[derive(Clone, Debug)]
+pub struct Wv5800m {
+    variant: Variant,
+    /// The variant's dictionary, chosen once in [`Wv5800m::new`] so that only `new` names the
+    /// eight tables: a firmware that builds one variant links one table.
+    table: &'static [Entry],
+    speed: SpeedEstimator,
+    /// Last valid raw count (600Ch), `None` before the first sample and while the sensor fails.
+    raw: Option<u32>,
+    /// Directed raw counts summed over every sample since the speed series began (unwrapped).
+    travel: i64,
+    fault: bool,
+    over_speed: bool,
+    limit_low: bool,
+    limit_high: bool,
+    areas: WorkAreas,
+    conditions: EmcyConditions,
+    passive: bool,
+    recovered: bool,
+    bus_off: bool,
+    warning: bool,
+    can: CanDiagnosis,
+    started: bool,
+}
+
+impl Wv5800m {
+    /// An encoder of `variant`, before its first sensor sample.
+    #[inline]
+    pub fn new(variant: Variant) -> Wv5800m {
+        Wv5800m {
+            variant,
+            table: table_of(variant),
+            speed: SpeedEstimator::new(100_000),
+            raw: None,
+            travel: 0,
+            fault: false,
+            over_speed: false,
+            limit_low: false,
+            limit_high: false,
+            areas: WorkAreas { state: [0; 2] },
+            conditions: EmcyConditions::new(),
+            passive: false,
+            recovered: false,
+            bus_off: false,
+            warning: false,
+            can: CanDiagnosis::default(),
+            started: false,
+        }
+    }
+
+    /// The variant.
+    pub const fn variant(&self) -> Variant {
+        self.variant
+    }
+
+    /// Is the position value invalid (sensor fault)?
+    pub const fn fault(&self) -> bool {
+        self.fault
+    }
+
+    /// Is the maximum speed exceeded (yellow LED, 6505h bit 0, FF12h)?
+    pub const fn over_speed(&self) -> bool {
+        self.over_speed
+    }
+
+    /// What the three LEDs show now ([`Leds::lit`] gives the blink phase at an instant).
+    pub fn leds(&self, core: &Core) -> Leds {
+        Leds::from_inputs(&LedInputs {
+            nmt: core.nmt,
+            lss_configuration: core.lss.enabled() && core.lss.state() == LssState::Configuration,
+            bus_off: self.bus_off,
+            warning_limit: self.warning || self.passive,
+            guard_event: guarding::life_guard_event(core),
+            over_speed: self.over_speed,
+        })
+    }
+
+    /// The scaling the dictionary holds now.
+    pub fn scaling(&self, od: &Od) -> Scaling {
+        let v = |i: u16, s: u8, d: u32| od.value(i, s).unwrap_or(d);
+        let n = self.variant.turns.revolutions();
+        let r = rotary::raw_range(n);
+        Scaling {
+            revolutions: n,
+            apu: v(0x6001, 0, PHYSICAL_STEPS).clamp(1, MAX_APU),
+            ccw: v(0x6000, 0, 0) as u16 & DIRECTION_BIT != 0,
+            calibration: (v(0x6509, 0, 0) as i32 as i64).rem_euclid(r as i64) as u32,
+            preset: v(0x6003, 0, 0) as i32,
+            offset: v(0x2001, 0, 0) as i32,
+        }
+    }
+
+    /// Sets the objects derived from the scaling: 6002h, 650Ah.01/.03, 6500h, and 6004h from
+    /// the last valid reading.
+    fn derive(&self, od: &mut Od) {
+        let s = self.scaling(od);
+        od.set_value(0x6002, 0, s.total());
+        od.set_value(0x650A, 1, s.offset as u32);
+        od.set_value(0x650A, 3, s.largest());
+        let op = od.value(0x6000, 0).unwrap_or(0) as u16;
+        od.set_value(0x6500, 0, operating_status(op, DIRECTION_BIT | SCALING_BIT) as u32);
+        if let Some(raw) = self.raw {
+            od.set_value(0x6004, 0, s.position(raw));
+        }
+    }
+
+    /// Brings the derived objects in line with the dictionary after power-on or a reset.
+    fn start(&mut self, core: &mut Core) {
+        let od = &mut core.od;
+        // 6200h and 1800h.05 are one value in two objects of two storage groups: after a
+        // reset, the one that differs from its default wins, 1800h.05 when both do.
+        if let (Some(a), Some(b)) = (od.pos(0x1800, 5), od.pos(0x6200, 0)) {
+            let (va, vb) = (od.get(a), od.get(b));
+            let v = if va != od.entry(a).default_value(0) || vb == od.entry(b).default_value(0) { va } else { vb };
+            od.set(a, v);
+            od.set(b, v);
+        }
+        self.derive(od);
+        self.speed.reset();
+        self.can = CanDiagnosis::default();
+        od.set_value(0x5000, 0, 0);
+        self.started = true;
+    }
+
+    fn ensure_started(&mut self, core: &mut Core) {
+        if !self.started {
+            self.start(core);
+        }
+    }
+
+    /// Recomputes work areas, alarms and warnings and reports the EMCY conditions.
+    fn evaluate(&mut self, core: &mut Core, now: Instant) {
+        let od = &mut core.od;
+        if self.raw.is_some() {
+            let p = od.value(0x6004, 0).unwrap_or(0);
+            for k in 0..2u8 {
+                let low = od.value(0x6401, k + 1).unwrap_or(0) as i32;
+                let high = od.value(0x6402, k + 1).unwrap_or(0) as i32;
+                let s = work_area_state(p, low, high);
+                self.areas.state[k as usize] = s;
+                od.set_value(0x6400, k + 1, s as u32);
+            }
+        }
+        let speed = od.value(0x6030, 1).unwrap_or(0) as u16 as i16 as i64;
+        let low = od.value(0x2003, 0).unwrap_or(0) as u16 as i16;
+        let high = od.value(0x2004, 0).unwrap_or(0) as u16 as i16;
+        (self.limit_low, self.limit_high) = if self.fault { (false, false) } else { limit_speed(speed, low, high) };
+        let supported = od.value(0x6504, 0).unwrap_or(0) as u16;
+        od.set_value(0x6503, 0, alarms(self.fault, &self.areas, supported) as u32);
+        let supported = od.value(0x6506, 0).unwrap_or(0) as u16;
+        let warn = self.over_speed || self.limit_low || self.limit_high;
+        od.set_value(0x6505, 0, warnings(warn, supported) as u32);
+        self.report(core, now);
+    }
+
+    fn report(&mut self, core: &mut Core, now: Instant) {
+        let c = &mut self.conditions;
+        c.update(core, C_POSITION, EMCY_POSITION, self.fault, now);
+        c.update(core, C_AREA_1, EMCY_AREA_1, self.areas.outside(0), now);
+        c.update(core, C_AREA_2, EMCY_AREA_2, self.areas.outside(1), now);
+        c.update(core, C_VELOCITY, EMCY_VELOCITY, self.over_speed, now);
+        c.update(core, C_LIMIT_LOW, EMCY_LIMIT_LOW, self.limit_low, now);
+        c.update(core, C_LIMIT_HIGH, EMCY_LIMIT_HIGH, self.limit_high, now);
+        c.update(core, C_PASSIVE, EMCY_PASSIVE, self.passive, now);
+        if self.recovered {
+            // An event: reported once the bus works again and cleared at once (D-ENC-5).
+            self.recovered = false;
+            c.update(core, C_BUS_OFF, EMCY_BUS_OFF, true, now);
+            c.update(core, C_BUS_OFF, EMCY_BUS_OFF, false, now);
+        }
+    }
+}
+
+impl Device for Wv5800m {
+    fn table(&self) -> &'static [Entry] {
+        self.table
+    }
+
+    fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        self.ensure_started(core);
+        let hook = match core.od.entry(pos).hook {
+            Hook::Device(h) => h,
+            _ => return Ok(()),
+        };
+        let before = self.scaling(&core.od);
+        match hook {
+            hooks::OPERATING_PARAMETERS => {
+                let v = value as u16;
+                // Scaling cannot be switched off; bits other than 0 and 2 are unused.
+                if v & !(DIRECTION_BIT | SCALING_BIT) != 0 || v & SCALING_BIT == 0 {
+                    return Err(Abort::INVALID_VALUE);
+                }
+                let ccw = v & DIRECTION_BIT != 0;
+                if ccw != before.ccw {
+                    let after = before.with_direction(ccw);
+                    core.od.set_value(0x6509, 0, after.calibration);
+                    let speed = core.od.value(0x6030, 1).unwrap_or(0) as u16 as i16;
+                    core.od.set_value(0x6030, 1, speed.saturating_neg() as u16 as u32);
+                    self.travel = -self.travel;
+                    self.speed.reset();
+                }
+            }
+            hooks::APU => {}
+            hooks::TOTAL_RANGE => {
+                // 6002h follows 6001h (APU × revolutions); no other total is possible.
+                if value != before.apu * before.revolutions {
+                    return Err(Abort::INVALID_VALUE);
+                }
+            }
+            hooks::IN_RANGE => {
+                if value as i32 as i64 > before.largest() as i64 {
+                    return Err(Abort::INVALID_VALUE);
+                }
+            }
+            hooks::OFFSET | hooks::LIMIT_SPEED => {}
+            hooks::CALIBRATE => {
+                let raw = self.raw.ok_or(Abort::NO_DATA)?;
+                core.od.set_value(0x6509, 0, before.calibrated_at(raw));
+            }
+            hooks::CYCLE_TIMER => {
+                let timer = core.od.pos(0x1800, 5).ok_or(Abort::GENERAL)?;
+                pdo::on_write(core, CoreHook::PdoEventTimer, timer, value, now)?;
+                core.od.set(timer, value);
+                core.od.set_value(0x6200, 0, value);
+            }
+            _ => return Ok(()),
+        }
+        core.od.set(pos, value);
+        self.derive(&mut core.od);
+        self.evaluate(core, now);
+        Ok(())
+    }
+
+    fn on_reset(&mut self, core: &mut Core, kind: ResetKind, now: Instant) {
+        let _ = kind;
+        self.start(core);
+        self.evaluate(core, now);
+    }
+
+    fn poll(&mut self, core: &mut Core, now: Instant) {
+        self.ensure_started(core);
+        self.report(core, now);
+    }
+
+    fn on_bus_event(&mut self, core: &mut Core, event: BusEvent, now: Instant) {
+        self.ensure_started(core);
+        match event {
+            BusEvent::ErrorPassive => self.passive = true,
+            BusEvent::ErrorActive => self.passive = false,
+            BusEvent::BusOff => self.bus_off = true,
+            BusEvent::BusOffRecovered => {
+                self.bus_off = false;
+                self.passive = false;
+                self.warning = false;
+                self.recovered = true;
+            }
+            BusEvent::RxOverrun => {}
+            BusEvent::ProtocolError(e) => {
+                self.can.count(e);
+                core.od.set_value(0x5000, 0, self.can.ranking());
+            }
+            BusEvent::ErrorCounters { rx, tx } => {
+                self.warning = rx >= WARNING_LIMIT || tx >= WARNING_LIMIT;
+                core.od.set_value(0x1002, 0, rx as u32 | (tx as u32) << 8);
+            }
+        }
+        self.report(core, now);
+    }
+}
+
+impl Encoder for Wv5800m {
+    fn on_sample(&mut self, core: &mut Core, raw: Result<u32, SensorFault>, now: Instant) {
+        self.ensure_started(core);
+        let s = self.scaling(&core.od);
+        let reading = raw.and_then(|r| if s.valid(r) { Ok(r) } else { Err(SensorFault::OutOfRange) });
+        let od = &mut core.od;
+        match reading {
+            Ok(r) => {
+                if let Some(old) = self.raw {
+                    self.travel += raw_delta(r, old, s.raw_range(), s.ccw);
+                }
+                self.fault = false;
+                self.raw = Some(r);
+                od.set_value(0x600C, 0, r);
+                od.set_value(0x6004, 0, s.position(r));
+                if let Some(w) = self.speed.push(now, self.travel) {
+                    let mul = od.value(0x6031, 3).unwrap_or(1);
+                    let div = od.value(0x6031, 4).unwrap_or(1);
+                    let v = speed_value(w, mul, div).clamp(i16::MIN as i64, i16::MAX as i64) as i16;
+                    od.set_value(0x6030, 1, v as u16 as u32);
+                    self.over_speed = over_speed(w);
+                }
+            }
+            Err(_) => {
+                self.fault = true;
+                self.raw = None;
+                self.speed.reset();
+                self.over_speed = false;
+                od.set_value(0x6030, 1, 0);
+            }
+        }
+        self.evaluate(core, now);
+    }
+
+    fn sample_period_us(&self) -> u32 {
+        SAMPLE_PERIOD_US
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const ALL: [Variant; 8] = [
+        Variant { model: Model::Wv, turns: Turns::Single },
+        Variant { model: Model::Wv, turns: Turns::Multi4 },
+        Variant { model: Model::Wv, turns: Turns::Multi8 },
+        Variant { model: Model::Wv, turns: Turns::Multi12 },
+        Variant { model: Model::Wh, turns: Turns::Single },
+        Variant { model: Model::Wh, turns: Turns::Multi4 },
+        Variant { model: Model::Wh, turns: Turns::Multi8 },
+        Variant { model: Model::Wh, turns: Turns::Multi12 },
+    ];
+
+    #[test]
+    fn every_manual_row_is_declared() {
+        for v in ALL {
+            let t = table_of(v);
+            // 102 rows in the digest's object table.
+            assert_eq!(t.len(), ENTRIES);
+            let od = Od::new(t, DEFAULT_NODE_ID);
+            let n = v.turns.revolutions();
+            assert_eq!(od.value(0x1000, 0), Some(v.turns.device_type()));
+            assert_eq!(od.value(0x6002, 0), Some(16384 * n));
+            assert_eq!(od.value(0x6502, 0), Some(n));
+            assert_eq!(od.value(0x650A, 3), Some(16384 * n - 1));
+            assert_eq!(od.value(0x1014, 0), Some(0x81));
+            assert_eq!(od.value(0x1800, 1), Some(0x181));
+            assert_eq!(od.value(0x1801, 1), Some(0x281));
+            assert_eq!(od.value(0x6000, 0), Some(4));
+            assert!(od.pos(0x1800, 4).is_none() && od.pos(0x1801, 6).is_none());
+            let e = od.entry(od.pos(0x1008, 0).unwrap());
+            assert_eq!(e.default, crate::od::Default::Str(v.model.name()));
+            let e = od.entry(od.pos(0x2001, 0).unwrap());
+            assert_eq!(e.limits, Some((-(16384 * n as i64), 16384 * n as i64 - 1)));
+            let e = od.entry(od.pos(0x6003, 0).unwrap());
+            assert_eq!(e.limits, Some((0, 65535 * n as i64 - 1)));
+        }
+        // The WV and WH tables differ only in the name.
+        for (a, b) in WV_4096.iter().zip(WH_4096.iter()) {
+            if a.index != 0x1008 {
+                assert_eq!(a, b);
+            }
+        }
+    }
+}

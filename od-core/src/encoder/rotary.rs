@@ -1,0 +1,356 @@
+//! The rotary multiturn encoder (WV5800M / WH5800M): the position pipeline from the sensor's
+//! raw count to the position value, as pure functions.
+//!
+//! # The position pipeline
+//!
+//! The sensor counts [`PHYSICAL_STEPS`] steps per revolution over `N` revolutions (6501h,
+//! 6502h): the raw value 600Ch runs `0 .. R` with `R = 16384 × N` and wraps after `N` turns.
+//! From it ([`Scaling`]):
+//!
+//! 1. counting direction (6000h bit 0): `directed = raw` (sense of rotation I, ascending
+//!    clockwise, the sensor's own sense) or `(R − raw) mod R` (sense E, ascending
+//!    counter-clockwise);
+//! 2. calibration: `counts = (directed − c) mod R`, where `c` (6509h "encoder state at the time
+//!    of calibration") is the directed raw count captured when 1h was written to 2002h, so the
+//!    measured value is "zeroed" there;
+//! 3. scaling (6001h = APU, always on): `measured = counts × APU / 16384`, truncated, so the
+//!    measured value runs `0 .. T` with `T = APU × N` (6002h) and wraps exactly where the raw
+//!    count wraps;
+//! 4. `position = (measured + 6003h + 2001h) mod T` (6004h), the manual's "position value =
+//!    measured value + calibration value + application offset", kept in `0 .. T` (650Ah.02/.03).
+//!
+//! Because `c` is a raw count, changing the APU keeps the calibration point: the position read
+//! there is still `6003h + 2001h`. A change of the counting direction maps `c` to
+//! `(R − c) mod R` ([`Scaling::with_direction`]), which is the directed count of the same shaft
+//! angle, so the calibration point keeps its value too and every other position now counts the
+//! other way from it.
+//!
+//! The speed (6030h.01) is the raw count's change in increments per millisecond
+//! ([`speed_value`]), its sign following the counting direction.
+//!
+//! The decisions are in `docs/decisions.md`, "WV5800M".
+
+use crate::encoder::{shortest_delta, Window};
+
+/// Physical measuring steps per revolution (6501h).
+pub const PHYSICAL_STEPS: u32 = 16_384;
+
+/// 6000h bit 0: sense of rotation E (ascending counter-clockwise).
+pub const DIRECTION_BIT: u16 = 1 << 0;
+/// 6000h bit 2: scaling enabled (always set).
+pub const SCALING_BIT: u16 = 1 << 2;
+
+/// Largest APU (6001h).
+pub const MAX_APU: u32 = 65_535;
+
+/// The maximum speed in raw increments per second: 6000 rpm, the speed the manual's conversion
+/// formula quotes (6000 rpm = 1638.4 Inc/ms).
+pub const MAX_SPEED_INC_PER_S: u64 = 1_638_400;
+
+/// The raw range `R` of an encoder with `revolutions` distinguishable revolutions.
+pub const fn raw_range(revolutions: u32) -> u32 {
+    PHYSICAL_STEPS * revolutions
+}
+
+/// Everything the position depends on besides the raw count, as the dictionary holds it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Scaling {
+    /// Number of distinguishable revolutions `N` (6502h): 1, 16, 256 or 4096.
+    pub revolutions: u32,
+    /// Measuring steps per revolution (6001h), 1..=65535.
+    pub apu: u32,
+    /// Sense of rotation E (6000h bit 0).
+    pub ccw: bool,
+    /// Directed raw count at the last calibration (6509h), `0 .. R`.
+    pub calibration: u32,
+    /// Calibration value (6003h).
+    pub preset: i32,
+    /// Application offset (2001h).
+    pub offset: i32,
+}
+
+impl Scaling {
+    /// The raw range `R = 16384 × N`.
+    pub const fn raw_range(&self) -> u32 {
+        raw_range(self.revolutions)
+    }
+
+    /// The total measuring range `T = APU × N` (6002h).
+    pub const fn total(&self) -> u32 {
+        self.apu * self.revolutions
+    }
+
+    /// Is `raw` a count the sensor can give (`0 .. R`)?
+    pub const fn valid(&self, raw: u32) -> bool {
+        raw < self.raw_range()
+    }
+
+    /// The raw count in the counting direction.
+    pub const fn directed(&self, raw: u32) -> u32 {
+        let r = self.raw_range();
+        let raw = raw % r;
+        if self.ccw {
+            (r - raw) % r
+        } else {
+            raw
+        }
+    }
+
+    /// Raw counts scaled to measuring steps: `counts × APU / 16384`, truncated.
+    pub const fn scale(&self, counts: u32) -> u32 {
+        (counts as u64 * self.apu as u64 / PHYSICAL_STEPS as u64) as u32
+    }
+
+    /// The measured value of `raw`: scaled, directed counts from the calibration point.
+    pub const fn measured(&self, raw: u32) -> u32 {
+        let r = self.raw_range() as i64;
+        let counts = (self.directed(raw) as i64 - self.calibration as i64).rem_euclid(r);
+        self.scale(counts as u32)
+    }
+
+    /// The position value (6004h) of `raw`.
+    pub const fn position(&self, raw: u32) -> u32 {
+        let t = self.total() as i64;
+        (self.measured(raw) as i64 + self.preset as i64 + self.offset as i64).rem_euclid(t) as u32
+    }
+
+    /// The calibration (6509h) that zeroes the measured value at `raw` (2002h := 1).
+    pub const fn calibrated_at(&self, raw: u32) -> u32 {
+        self.directed(raw)
+    }
+
+    /// The same scaling with the counting direction `ccw`: the calibration is mapped to the
+    /// directed count of the same shaft angle, so the calibration point keeps its position.
+    pub const fn with_direction(mut self, ccw: bool) -> Scaling {
+        if ccw != self.ccw {
+            let r = self.raw_range();
+            self.calibration = (r - self.calibration % r) % r;
+            self.ccw = ccw;
+        }
+        self
+    }
+
+    /// The largest transferable position value (650Ah.03): `T − 1`.
+    pub const fn largest(&self) -> u32 {
+        self.total() - 1
+    }
+}
+
+/// The signed raw movement from `old` to `new` (600Ch values) on the wrapping raw circle of
+/// `raw_range` counts, in the counting direction.
+pub const fn raw_delta(new: u32, old: u32, raw_range: u32, ccw: bool) -> i64 {
+    let d = shortest_delta(new as i64, old as i64, raw_range as i64);
+    if ccw {
+        -d
+    } else {
+        d
+    }
+}
+
+/// The speed value (6030h.01) of a window of raw movement: increments per millisecond times
+/// the 6031h multiplier over the divisor, rounded to nearest. Not saturated.
+pub fn speed_value(window: Window, multiplier: u32, divisor: u32) -> i64 {
+    window.rate(multiplier as i64, 1000 * divisor.max(1) as i64)
+}
+
+/// Is the raw movement of `window` faster than the maximum speed (6000 rpm)?
+pub fn over_speed(window: Window) -> bool {
+    window.delta.unsigned_abs() as u128 * 1_000_000 > MAX_SPEED_INC_PER_S as u128 * window.elapsed_us as u128
+}
+
+/// The speed conditions of the 2003h/2004h limit speeds (in 6030h.01 units): `(low, high)` is
+/// (speed below 2003h, speed above 2004h). A limit of 0 is switched off (both ship as 0).
+pub const fn limit_speed(speed: i64, low: i16, high: i16) -> (bool, bool) {
+    (low != 0 && speed < low as i64, high != 0 && speed > high as i64)
+}
+
+/// The 6400h state of a work area with limits `low`/`high` (6401h/6402h) at `position`: the
+/// shared inclusive rule ([`crate::encoder::area_state`]); a work area whose limits are both 0
+/// (as shipped) is switched off and reads 0.
+pub const fn work_area_state(position: u32, low: i32, high: i32) -> u8 {
+    if low == 0 && high == 0 {
+        0
+    } else {
+        crate::encoder::area_state(position as i64, low as i64, high as i64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    const REVS: [u32; 4] = [1, 16, 256, 4096];
+
+    fn scaling(revolutions: u32) -> Scaling {
+        Scaling { revolutions, apu: PHYSICAL_STEPS, ccw: false, calibration: 0, preset: 0, offset: 0 }
+    }
+
+    #[test]
+    fn defaults_give_the_raw_count() {
+        for n in REVS {
+            let s = scaling(n);
+            assert_eq!(s.total(), 16384 * n);
+            assert_eq!(s.position(0), 0);
+            assert_eq!(s.position(s.raw_range() - 1), s.raw_range() - 1);
+            assert_eq!(s.largest(), [16383, 262143, 4194303, 67108863][REVS.iter().position(|&r| r == n).unwrap()]);
+        }
+        // 650Ah.03 at the largest APU, as the manual prints it.
+        let s = Scaling { apu: MAX_APU, ..scaling(4096) };
+        assert_eq!(s.largest(), 268_431_359);
+        let s = Scaling { apu: MAX_APU, ..scaling(1) };
+        assert_eq!(s.largest(), 65534);
+    }
+
+    #[test]
+    fn calibration_sets_preset_plus_offset() {
+        let s = Scaling { preset: 510, offset: -10, ..scaling(16) };
+        let s = Scaling { calibration: s.calibrated_at(1000), ..s };
+        assert_eq!(s.position(1000), 500);
+        assert_eq!(s.position(1010), 510);
+        // Below the calibration point the value wraps to the top of the range.
+        let s = Scaling { preset: 0, offset: 0, ..s };
+        assert_eq!(s.position(999), 262_143);
+    }
+
+    #[test]
+    fn direction_keeps_the_calibration_point() {
+        let s = Scaling { preset: 100, ..scaling(1) };
+        let s = Scaling { calibration: s.calibrated_at(4000), ..s };
+        let e = s.with_direction(true);
+        assert_eq!(e.position(4000), 100);
+        assert_eq!(s.position(4010), 110);
+        assert_eq!(e.position(4010), 90);
+        assert_eq!(e.with_direction(false), s);
+    }
+
+    #[test]
+    fn speed_and_limits() {
+        // 16384 increments in 100 ms: 163.84 Inc/ms → 164; 600 rpm.
+        let w = Window { delta: 16384, elapsed_us: 100_000 };
+        assert_eq!(speed_value(w, 1, 1), 164);
+        assert!(!over_speed(w));
+        assert!(!over_speed(Window { delta: 163_840, elapsed_us: 100_000 }));
+        assert!(over_speed(Window { delta: -163_841, elapsed_us: 100_000 }));
+        assert_eq!(raw_delta(2, 262_142, 262_144, false), 4);
+        assert_eq!(raw_delta(2, 262_142, 262_144, true), -4);
+        assert_eq!(limit_speed(5, 0, 0), (false, false));
+        assert_eq!(limit_speed(-5, -4, 0), (true, false));
+        assert_eq!(limit_speed(5, -4, 4), (false, true));
+        assert_eq!(limit_speed(4, -4, 4), (false, false));
+    }
+
+    #[test]
+    fn work_areas_switched_off_at_zero() {
+        assert_eq!(work_area_state(5, 0, 0), 0);
+        assert_eq!(work_area_state(0, 0, 0), 0);
+        assert_eq!(work_area_state(5, 0, 4), 0b011);
+        assert_eq!(work_area_state(5, 6, 10), 0b101);
+        assert_eq!(work_area_state(10, 6, 10), 0);
+    }
+
+    fn any_scaling() -> impl Strategy<Value = Scaling> {
+        (0usize..4, 1u32..=MAX_APU, any::<bool>(), any::<u32>(), any::<u32>(), any::<i32>()).prop_map(
+            |(k, apu, ccw, c, p, o)| {
+                let n = REVS[k];
+                let r = raw_range(n);
+                let t = apu * n;
+                Scaling {
+                    revolutions: n,
+                    apu,
+                    ccw,
+                    calibration: c % r,
+                    preset: (p % t) as i32,
+                    // 2001h: ±R as the manual prints it.
+                    offset: o.rem_euclid(2 * r as i32) - r as i32,
+                }
+            },
+        )
+    }
+
+    proptest! {
+        #[test]
+        fn position_stays_in_range(s in any_scaling(), raw in any::<u32>()) {
+            let raw = raw % s.raw_range();
+            prop_assert!(s.position(raw) < s.total());
+            prop_assert!(s.measured(raw) < s.total());
+        }
+
+        #[test]
+        fn preset_round_trip(s in any_scaling(), raw in any::<u32>()) {
+            // Writing 6003h and then 2002h := 1 reads back 6003h + 2001h, whatever came before.
+            let raw = raw % s.raw_range();
+            let c = Scaling { calibration: s.calibrated_at(raw), ..s };
+            let t = s.total() as i64;
+            prop_assert_eq!(c.position(raw) as i64, (s.preset as i64 + s.offset as i64).rem_euclid(t));
+            prop_assert_eq!(c.measured(raw), 0);
+        }
+
+        #[test]
+        fn scaling_is_monotone_and_exact_per_revolution(s in any_scaling(), raw in any::<u32>()) {
+            let s = Scaling { ccw: false, calibration: 0, preset: 0, offset: 0, ..s };
+            let r = s.raw_range();
+            let raw = raw % r;
+            // One revolution further (mod R) is exactly APU steps further (mod T).
+            let next = (raw + PHYSICAL_STEPS) % r;
+            prop_assert_eq!(s.position(next), (s.position(raw) + s.apu) % s.total());
+            if raw + 1 < r {
+                let d = s.position(raw + 1) - s.position(raw);
+                prop_assert!(d as u64 <= s.apu.div_ceil(PHYSICAL_STEPS) as u64);
+            }
+        }
+
+        #[test]
+        fn wrap_around_has_no_gap(s in any_scaling(), raw in any::<u32>()) {
+            // One count further in the counting direction is floor(APU/16384) or
+            // ceil(APU/16384) steps further modulo T everywhere: across the physical wrap of
+            // the raw count and across the calibration point (where T-1 turns into 0) alike.
+            let r = s.raw_range();
+            let undirect = |d: u32| if s.ccw { (r - d % r) % r } else { d % r };
+            let lo = s.apu / PHYSICAL_STEPS;
+            let hi = s.apu.div_ceil(PHYSICAL_STEPS);
+            let t = s.total() as i64;
+            for d in [s.directed(raw % r), r - 1, s.calibration + r - 1, 0] {
+                let d = d % r;
+                let here = undirect(d);
+                let next = undirect(d + 1);
+                let step = (s.position(next) as i64 - s.position(here) as i64).rem_euclid(t) as u32;
+                prop_assert!(step == lo || step == hi, "step {} at directed {}", step, d);
+            }
+            // The measured value turns from T-1 (or the last step below T) to 0 at the
+            // calibration point.
+            let at = undirect(s.calibration);
+            prop_assert_eq!(s.measured(at), 0);
+            prop_assert_eq!(s.measured(undirect(s.calibration + r - 1)), s.scale(r - 1));
+        }
+
+        #[test]
+        fn direction_change_mirrors_about_the_calibration_point(s in any_scaling(), raw in any::<u32>(), d in 0u32..16384) {
+            let r = s.raw_range();
+            let raw = raw % r;
+            let cal = Scaling { calibration: s.calibrated_at(raw), ..s };
+            let flipped = cal.with_direction(!s.ccw);
+            // The calibration point keeps its value.
+            prop_assert_eq!(flipped.position(raw), cal.position(raw));
+            // Turning the shaft d counts one way moves the two senses oppositely.
+            let moved = (raw + d) % r;
+            let t = s.total() as i64;
+            let a = (cal.position(moved) as i64 - cal.position(raw) as i64).rem_euclid(t);
+            let b = (flipped.position(raw) as i64 - flipped.position(moved) as i64).rem_euclid(t);
+            // Truncation may differ by one step between the two senses.
+            prop_assert!((a - b).abs() <= 1 || (a - b).abs() >= t - 1, "a={} b={}", a, b);
+            // Flipping twice is the identity.
+            prop_assert_eq!(flipped.with_direction(s.ccw), cal);
+        }
+
+        #[test]
+        fn speed_follows_the_direction(old in any::<u32>(), d in -8000i64..8000, k in 0usize..4) {
+            let r = raw_range(REVS[k]);
+            let old = old % r;
+            let new = (old as i64 + d).rem_euclid(r as i64) as u32;
+            let expect = if r as i64 > 2 * d.abs() { d } else { shortest_delta(new as i64, old as i64, r as i64) };
+            prop_assert_eq!(raw_delta(new, old, r, false), expect);
+            prop_assert_eq!(raw_delta(new, old, r, true), -expect);
+        }
+    }
+}

@@ -1,0 +1,341 @@
+//! The device registry: how each `--device` kind becomes nodes on a segment, each with its
+//! parameter flash and, for encoders, a simulated sensor. A kind not built yet answers
+//! [`Registry::build`] with a "not yet available" error; adding it is one arm of [`plan`].
+
+use std::f64::consts::TAU;
+use std::path::Path;
+
+use od_core::devices::{sgh10, sgh50, wv5800m};
+use od_core::encoder::rotary;
+use od_core::encoder::Encoder;
+use od_core::node::{Core, Node, Output};
+use od_core::od::{CoreHook, Entry, Hook};
+use od_core::storage::{identity, Image, Loaded, ParamFlash, Record, Region};
+use od_core::{Frame, Instant};
+
+use super::options::{DeviceSpec, Kind, Motion, UNCONFIGURED};
+use crate::flash::{FileFlash, RamFlash};
+use crate::segment::{Boot, NodeFlash, Station};
+
+/// The parameter pages each device reserves (two 1 KiB pages, as the firmware).
+pub const REGION: Region = Region { offset: 0, pages: 2 };
+
+/// An encoder node with its simulated sensor: the sensor is sampled at the device's period.
+pub struct Sensed<E: Encoder> {
+    node: Node<E>,
+    /// What the device shows (LEDs, screen), for the live view.
+    panel: Option<Panel<E>>,
+    motion: Motion,
+    /// The raw value's range (0..=max).
+    max: u32,
+    next_sample: Instant,
+}
+
+impl<E: Encoder> Sensed<E> {
+    /// `node` whose sensor moves as `motion` within 0..=`max`.
+    pub fn new(node: Node<E>, motion: Motion, max: u32) -> Sensed<E> {
+        Sensed { node, panel: None, motion, max, next_sample: Instant::ZERO }
+    }
+
+    /// Shows what `panel` makes of the device in the live view.
+    pub fn with_panel(mut self, panel: Panel<E>) -> Sensed<E> {
+        self.panel = Some(panel);
+        self
+    }
+}
+
+/// What a device shows its user, as text.
+pub type Panel<E> = fn(&E, &Core) -> String;
+
+/// The WV5800M's three LEDs (CiA 303-3 green and red, yellow over-speed).
+fn wv5800m_leds(d: &wv5800m::Wv5800m, core: &Core) -> String {
+    let l = d.leds(core);
+    format!("LEDs green={:?} red={:?} yellow={:?}", l.green, l.red, l.yellow)
+}
+
+/// The raw sensor value of `motion` within 0..=`max` at `t` seconds.
+pub fn raw_at(motion: Motion, max: u32, t: f64) -> u32 {
+    let v = match motion {
+        Motion::Fixed(v) => return v,
+        Motion::Ramp(rate) => (rate * t).rem_euclid(max as f64 + 1.0),
+        Motion::Sine(ampl, period) => max as f64 / 2.0 + ampl * (TAU * t / period).sin(),
+    };
+    v.clamp(0.0, max as f64) as u32
+}
+
+impl<E: Encoder> Station for Sensed<E> {
+    fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        self.node.on_frame(frame, now)
+    }
+    fn poll(&mut self, now: Instant) {
+        if now >= self.next_sample {
+            let raw = raw_at(self.motion, self.max, now.as_micros() as f64 / 1e6);
+            let (dev, core) = self.node.split();
+            dev.on_sample(core, Ok(raw), now);
+            let period = u64::from(self.node.device().sample_period_us().max(1));
+            // The next sample on the device's grid; samples a late loop missed are skipped.
+            self.next_sample = Instant::from_micros((now.as_micros() / period + 1) * period);
+        }
+        if self.node.next_deadline().is_some_and(|t| t <= now) {
+            self.node.poll(now)
+        }
+    }
+    fn next_deadline(&self) -> Option<Instant> {
+        od_core::time::earliest(self.node.next_deadline(), Some(self.next_sample))
+    }
+    fn next_output(&mut self) -> Option<Output> {
+        self.node.next_output()
+    }
+    fn store_done(&mut self, ok: bool, now: Instant) {
+        self.node.store_done(if ok { Ok(()) } else { Err(()) }, now)
+    }
+    fn core(&self) -> &Core {
+        self.node.core()
+    }
+    fn panel(&self) -> Option<String> {
+        self.panel.map(|p| p(self.node.device(), self.node.core()))
+    }
+}
+
+/// One node to put on a bus.
+pub struct NodePlan {
+    /// Shown in the live view (`SGH10`, `SGH50-A` ...).
+    pub label: String,
+    /// The bus.
+    pub bus: String,
+    /// Its parameter pages.
+    pub params: Box<dyn NodeFlash>,
+    /// How it powers on from them.
+    pub boot: Boot,
+}
+
+/// Where flash files go (`None`: RAM, lost at exit).
+pub struct Registry<'a> {
+    state_dir: Option<&'a Path>,
+}
+
+impl<'a> Registry<'a> {
+    /// Flash files in `state_dir`, if any.
+    pub fn new(state_dir: Option<&'a Path>) -> Registry<'a> {
+        Registry { state_dir }
+    }
+
+    /// The nodes of `spec`; `ordinal` numbers devices of the same kind on the same bus (it
+    /// names the flash files, so the same command line finds the same flash again).
+    pub fn build(&self, spec: &DeviceSpec, ordinal: usize) -> Result<Vec<NodePlan>, String> {
+        let mut plans = Vec::new();
+        for (n, channel) in plan(spec)?.into_iter().enumerate() {
+            let file = format!("{}-{}-{}{}.flash", spec.bus, spec.kind.name(), ordinal, channel.suffix);
+            let node = match spec.node {
+                Some(UNCONFIGURED) => Some(UNCONFIGURED),
+                Some(id) if usize::from(id) + n > 127 => {
+                    return Err(format!("--device {}: node {id}+{n} is beyond 127", spec.kind.name()))
+                }
+                Some(id) => Some(id + n as u8),
+                None => None,
+            };
+            let params = self.params(&file, channel.table, node, spec.serial)?;
+            plans.push(NodePlan { label: channel.label, bus: spec.bus.clone(), params, boot: channel.boot });
+        }
+        Ok(plans)
+    }
+
+    fn params(
+        &self,
+        file: &str,
+        table: &'static [Entry],
+        node: Option<u8>,
+        serial: Option<u32>,
+    ) -> Result<Box<dyn NodeFlash>, String> {
+        let id = identity(table);
+        let mut params: Box<dyn NodeFlash> = match self.state_dir {
+            Some(dir) => {
+                std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+                let path = dir.join(file);
+                let flash =
+                    FileFlash::open(&path, REGION.pages as usize).map_err(|e| format!("{}: {e}", path.display()))?;
+                let mut p = ParamFlash::new(flash, REGION, id);
+                factory(&mut p, table, node, serial)?;
+                Box::new(p)
+            }
+            None => {
+                let mut p = ParamFlash::new(RamFlash::new(REGION.pages as usize), REGION, id);
+                factory(&mut p, table, node, serial)?;
+                Box::new(p)
+            }
+        };
+        params.power_on();
+        Ok(params)
+    }
+}
+
+/// A blank flash gets what the command line says was configured before: the node-ID (as LSS
+/// stores it) and the serial number (factory data). A flash holding an image keeps it.
+fn factory<F: embedded_storage::nor_flash::NorFlash>(
+    p: &mut ParamFlash<F>,
+    table: &'static [Entry],
+    node: Option<u8>,
+    serial: Option<u32>,
+) -> Result<(), String> {
+    if !matches!(p.load(), Loaded::Blank) {
+        return Ok(());
+    }
+    let mut image = Image::new();
+    if let Some(id) = node {
+        let e = table
+            .iter()
+            .find(|e| matches!(e.hook, Hook::Core(CoreHook::PendingNodeId)))
+            .ok_or("this device has no configurable node-ID")?;
+        image.set(Record::of(e, id.into())).map_err(|_| "parameter image full")?;
+    }
+    if let Some(s) = serial {
+        let e = table.iter().find(|e| e.index == 0x1018 && e.sub == 4).ok_or("this device has no serial number")?;
+        image.set(Record::of(e, s)).map_err(|_| "parameter image full")?;
+    }
+    if !image.records().is_empty() {
+        p.write(&image).map_err(|e| format!("writing the flash: {e:?}"))?;
+    }
+    Ok(())
+}
+
+/// One node of a device.
+struct Channel {
+    label: String,
+    suffix: &'static str,
+    table: &'static [Entry],
+    boot: Boot,
+}
+
+/// Raw sensor range of a linear encoder: micrometres over its measuring range (0.1 mm steps).
+const fn linear_max(max_steps: i64) -> u32 {
+    (max_steps * 100) as u32
+}
+
+fn encoder_boot<E: Encoder + Clone + 'static>(device: E, motion: Motion, max: u32, panel: Option<Panel<E>>) -> Boot {
+    Box::new(move |loaded: &Loaded| {
+        let sensed = Sensed::new(Node::boot(device.clone(), loaded), motion, max);
+        Box::new(match panel {
+            Some(p) => sensed.with_panel(p),
+            None => sensed,
+        })
+    })
+}
+
+/// The nodes a device spec makes. The one place that knows every kind.
+fn plan(spec: &DeviceSpec) -> Result<Vec<Channel>, String> {
+    let unavailable =
+        |what: &str| Err(format!("--device {}: {what} not yet available in this build", spec.kind.name()));
+    if spec.kind.is_j1939() {
+        if spec.node.is_some() {
+            return Err(format!("--device {}: a J1939 device takes address=, not node=", spec.kind.name()));
+        }
+    } else if spec.address.is_some() {
+        return Err(format!("--device {}: a CANopen device takes node=, not address=", spec.kind.name()));
+    }
+    match spec.kind {
+        Kind::Sgh10 => {
+            if spec.redundant {
+                return Err("--device sgh10: there is no redundant SGH10".into());
+            }
+            let variant = match spec.variant.as_deref() {
+                None | Some("sgh10") | Some("SGH10") => sgh10::Variant::Sgh10,
+                Some("sgh10l") | Some("SGH10L") => sgh10::Variant::Sgh10L,
+                Some(v) => return Err(format!("--device sgh10: unknown variant {v} (sgh10, sgh10l)")),
+            };
+            let max = linear_max(sgh10::SPEC.max_steps);
+            let motion = spec.motion.unwrap_or(Motion::Sine(max as f64 / 4.0, 20.0));
+            Ok(vec![Channel {
+                label: "SGH10".into(),
+                suffix: "",
+                table: sgh10::TABLE,
+                boot: encoder_boot(sgh10::Sgh10::new(variant), motion, max, None),
+            }])
+        }
+        Kind::Sgh50 => {
+            if spec.variant.is_some() {
+                return Err("--device sgh50: use redundant=true for the redundant version".into());
+            }
+            let max = linear_max(sgh50::SPEC.max_steps);
+            let motion = spec.motion.unwrap_or(Motion::Ramp(20_000.0));
+            if !spec.redundant {
+                return Ok(vec![Channel {
+                    label: "SGH50".into(),
+                    suffix: "",
+                    table: sgh50::TABLE,
+                    boot: encoder_boot(sgh50::Sgh50::new(sgh50::Variant::Single), motion, max, None),
+                }]);
+            }
+            let ch = |c, label: &str, suffix, table| Channel {
+                label: label.into(),
+                suffix,
+                table,
+                boot: encoder_boot(sgh50::Sgh50::new(sgh50::Variant::Redundant(c)), motion, max, None),
+            };
+            Ok(vec![
+                ch(sgh50::Channel::First, "SGH50-A", "a", sgh50::TABLE),
+                ch(sgh50::Channel::Second, "SGH50-B", "b", sgh50::TABLE_SECOND),
+            ])
+        }
+        Kind::Wv5800m => {
+            if spec.redundant {
+                return Err("--device wv5800m: there is no redundant WV5800M".into());
+            }
+            let variant = wv5800m_variant(spec.variant.as_deref())?;
+            let max = rotary::raw_range(variant.turns.revolutions()) - 1;
+            // Half a revolution per second (30 rpm) unless told otherwise.
+            let motion = spec.motion.unwrap_or(Motion::Ramp(rotary::PHYSICAL_STEPS as f64 / 2.0));
+            Ok(vec![Channel {
+                label: variant.model.name().into(),
+                suffix: "",
+                table: wv5800m::table_of(variant),
+                boot: encoder_boot(wv5800m::Wv5800m::new(variant), motion, max, Some(wv5800m_leds)),
+            }])
+        }
+        Kind::Ap10t => unavailable("the AP10T"),
+        Kind::Wv58mr => unavailable("the WV58MR (J1939)"),
+    }
+}
+
+/// `variant=` of a WV5800M: model and revolutions, `wv4096` (default), `wv256`, `wv16`, `wv1`,
+/// `wh4096` ... `wh1`.
+fn wv5800m_variant(name: Option<&str>) -> Result<wv5800m::Variant, String> {
+    use wv5800m::{Model, Turns, Variant};
+    let name = name.unwrap_or("wv4096").to_ascii_lowercase();
+    let (model, turns) = name.split_at(name.len().min(2));
+    let model = match model {
+        "wv" => Model::Wv,
+        "wh" => Model::Wh,
+        _ => {
+            return Err(format!("--device wv5800m: unknown variant {name} (wv1, wv16, wv256, wv4096, wh1 ... wh4096)"))
+        }
+    };
+    let turns = match turns {
+        "1" => Turns::Single,
+        "16" => Turns::Multi4,
+        "256" => Turns::Multi8,
+        "4096" | "" => Turns::Multi12,
+        _ => {
+            return Err(format!("--device wv5800m: unknown variant {name} (wv1, wv16, wv256, wv4096, wh1 ... wh4096)"))
+        }
+    };
+    Ok(Variant { model, turns })
+}
+
+/// The ready-made bench: every device available so far on distinct node-IDs on can0.
+pub fn bench() -> Vec<DeviceSpec> {
+    let d = |kind, node, redundant, motion| DeviceSpec {
+        kind,
+        bus: "can0".into(),
+        node: Some(node),
+        address: None,
+        serial: Some(1000 + node as u32),
+        variant: None,
+        redundant,
+        motion: Some(motion),
+    };
+    vec![
+        d(Kind::Sgh10, 10, false, Motion::Sine(300_000.0, 20.0)),
+        d(Kind::Sgh50, 20, true, Motion::Ramp(50_000.0)),
+        d(Kind::Wv5800m, 30, false, Motion::Sine(40_000.0, 8.0)),
+    ]
+}
