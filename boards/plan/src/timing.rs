@@ -68,7 +68,7 @@ pub const fn bit_timing(clock_hz: u32, bits_per_second: u32) -> Result<BitTiming
     let mut quanta = 25u32;
     while quanta >= 8 {
         let per_bit = bits_per_second as u64 * quanta as u64;
-        if clock_hz as u64 % per_bit == 0 {
+        if (clock_hz as u64).is_multiple_of(per_bit) {
             let prescaler = clock_hz as u64 / per_bit;
             if prescaler >= 1 && prescaler <= 1024 {
                 let mut seg2 = 1u32;
@@ -77,11 +77,7 @@ pub const fn bit_timing(clock_hz: u32, bits_per_second: u32) -> Result<BitTiming
                     if seg1 >= 1 && seg1 <= 16 {
                         let t = BitTiming { prescaler: prescaler as u16, seg1: seg1 as u8, seg2: seg2 as u8, sjw: 1 };
                         let sp = t.sample_point_permille();
-                        let dist = if sp > SAMPLE_POINT_PERMILLE {
-                            sp - SAMPLE_POINT_PERMILLE
-                        } else {
-                            SAMPLE_POINT_PERMILLE - sp
-                        };
+                        let dist = sp.abs_diff(SAMPLE_POINT_PERMILLE);
                         // Strictly better only: the first found (most quanta) wins a tie.
                         let better = match best {
                             None => true,

@@ -46,12 +46,12 @@ fn sgh10_follows_node_id_and_sync_cob_id() {
 fn sgh10_extended_sync() {
     let mut node = Node::new(sgh10::Sgh10::new(sgh10::Variant::Sgh10), 3, Bitrate::K250);
     let (_, core) = node.split();
-    core.od.set_value(0x1005, 0, (1 << 29) | 0x1ABC_DE);
+    core.od.set_value(0x1005, 0, (1 << 29) | 0x001A_BCDE);
     let (ids, b) = filters_of(&node);
-    assert!(ids.contains(&RxId { id: CanId::Ext(0x1ABC_DE), rtr: false }));
+    assert!(ids.contains(&RxId { id: CanId::Ext(0x001A_BCDE), rtr: false }));
     assert_eq!(b.len(), 2, "four 11-bit identifiers in one bank, the 29-bit SYNC in another");
     assert!(matches!(b[1], Bank::List32(_)));
-    assert!(accepted(&b, CanId::Ext(0x1ABC_DE), false));
+    assert!(accepted(&b, CanId::Ext(0x001A_BCDE), false));
     assert!(!accepted(&b, CanId::Std(0x80), false));
 }
 
