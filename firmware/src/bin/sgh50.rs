@@ -1,0 +1,9 @@
+#![no_std]
+#![no_main]
+use defmt_rtt as _;
+use panic_probe as _;
+#[embassy_executor::main]
+async fn main(_s: embassy_executor::Spawner) {
+    let _p = embassy_stm32::init(Default::default());
+    loop { embassy_time::Timer::after_millis(100).await; }
+}
