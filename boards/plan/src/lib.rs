@@ -5,6 +5,7 @@
 //! - [`filters`]: the node's receive identifiers packed into bxCAN filter banks;
 //! - [`errors`]: the controller's error register turned into [`od_core::node::BusEvent`]s;
 //! - [`sensor`]: the SPI angle sensor's frame and the raw counts the devices take;
+//! - [`straps`]: the product variant from the strap pins, the serial number from the MCU;
 //! - [`reset`]: why the MCU reset, from the RCC's reset flags;
 //! - [`txq`]: the transmit queue that hands frames to the mailboxes in priority order.
 //!
@@ -17,5 +18,6 @@ pub mod errors;
 pub mod filters;
 pub mod reset;
 pub mod sensor;
+pub mod straps;
 pub mod timing;
 pub mod txq;
