@@ -1,1 +1,23 @@
+//! The Embassy shell around `od-core`: it moves frames, time, sensor samples and parameter
+//! images between the STM32F103's peripherals and a [`od_core::Node`], and decides nothing of
+//! the protocol itself.
+//!
+//! - [`can`]: the bxCAN at the node's bit rate, its acceptance filters, the receive queue and
+//!   the priority-ordered transmit queue, the controller's error state;
+//! - [`params`]: the parameter pages `memory.x` reserves, through the blocking flash driver;
+//! - [`run`]: boot and the one loop that waits for the next frame, the core's next deadline or
+//!   the next sample, whichever comes first.
+//!
+//! A binary (`src/bin/<device>.rs`) takes its board, builds its device and calls [`run::boot`]
+//! and [`run::run`].
 #![no_std]
+#![deny(missing_docs)]
+
+pub mod can;
+pub mod params;
+pub mod run;
+
+/// The time since reset as the core takes it (Embassy's TIM2 driver, 1 µs tick).
+pub fn now() -> od_core::Instant {
+    od_core::Instant::from_micros(embassy_time::Instant::now().as_micros())
+}

@@ -3,8 +3,13 @@
 //! Four straps (PB12..PB15, internal pull-ups, see `boards/README.md`) are read once at reset:
 //! an open strap reads 1, a fitted one (0 Ω to ground) reads 0. [`Straps`] holds the levels as
 //! read, bit `k` for strap `k`; each product decodes the straps it uses and ignores the rest.
+//!
+//! Only what leaves the object dictionary as it is comes from straps (SGH10/SGH10L, the channel
+//! of a redundant encoder: their tables are one or two). The rotary encoders' model and turns
+//! select one of eight dictionaries each; linking all eight would cost about 58 KiB of flash, so
+//! those are build options of the firmware (cargo features), one image per part number.
 
-use od_core::devices::{sgh10, sgh50, wv5800m};
+use od_core::devices::{sgh10, sgh50};
 use od_core::storage::crc::crc32;
 
 /// The strap levels as read: bit `k` set = strap `k` open (pulled up).
@@ -41,19 +46,6 @@ impl Straps {
         }
     }
 
-    /// WV5800M/WH5800M: straps 1 and 0 select the turns (open/open 4096, open/fitted 256,
-    /// fitted/open 16, fitted/fitted singleturn), strap 2 fitted = WH (hollow shaft).
-    pub const fn wv5800m(self) -> wv5800m::Variant {
-        let turns = match (self.fitted(1), self.fitted(0)) {
-            (false, false) => wv5800m::Turns::Multi12,
-            (false, true) => wv5800m::Turns::Multi8,
-            (true, false) => wv5800m::Turns::Multi4,
-            (true, true) => wv5800m::Turns::Single,
-        };
-        let model = if self.fitted(2) { wv5800m::Model::Wh } else { wv5800m::Model::Wv };
-        wv5800m::Variant { model, turns }
-    }
-
     /// WV58MR: strap 0 fitted = the redundant version, whose strap 1 fitted = the second
     /// channel. Returns (redundant, second channel).
     pub const fn wv58mr(self) -> (bool, bool) {
@@ -78,8 +70,6 @@ mod tests {
     fn open_straps_are_the_default_products() {
         assert_eq!(Straps::OPEN.sgh10(), sgh10::Variant::Sgh10);
         assert_eq!(Straps::OPEN.sgh50(), sgh50::Variant::Single);
-        let v = Straps::OPEN.wv5800m();
-        assert_eq!((v.model, v.turns), (wv5800m::Model::Wv, wv5800m::Turns::Multi12));
         assert_eq!(Straps::OPEN.wv58mr(), (false, false));
         // Straps beyond the four never matter.
         assert_eq!(Straps(0xFF).sgh50(), sgh50::Variant::Single);
@@ -91,14 +81,9 @@ mod tests {
         assert_eq!(Straps(0b1110).sgh50(), sgh50::Variant::Redundant(sgh50::Channel::First));
         assert_eq!(Straps(0b1100).sgh50(), sgh50::Variant::Redundant(sgh50::Channel::Second));
         assert_eq!(Straps(0b1101).sgh50(), sgh50::Variant::Single, "channel strap alone");
-        let turns = |s: u8| Straps(s).wv5800m().turns;
-        assert_eq!(turns(0b1111), wv5800m::Turns::Multi12);
-        assert_eq!(turns(0b1110), wv5800m::Turns::Multi8);
-        assert_eq!(turns(0b1101), wv5800m::Turns::Multi4);
-        assert_eq!(turns(0b1100), wv5800m::Turns::Single);
-        assert_eq!(Straps(0b1011).wv5800m().model, wv5800m::Model::Wh);
         assert_eq!(Straps(0b1100).wv58mr(), (true, true));
-        assert_eq!(Straps(0b1101).wv58mr(), (false, false));
+        assert_eq!(Straps(0b1110).wv58mr(), (true, false));
+        assert_eq!(Straps(0b1101).wv58mr(), (false, false), "channel strap alone");
     }
 
     #[test]

@@ -119,6 +119,11 @@ pub const TABLE: [BitTiming; 9] = {
     t
 };
 
+/// The boards' timing for `rate`, from [`TABLE`] (no computation at run time).
+pub const fn of(rate: Bitrate) -> BitTiming {
+    TABLE[rate as usize]
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -141,6 +146,7 @@ mod tests {
             check(&t, *rate);
             assert_eq!(TABLE[i], t);
             assert_eq!(for_bitrate(*rate), t);
+            assert_eq!(of(*rate), t, "{rate:?}: the table is indexed by the rate");
         }
     }
 

@@ -1,9 +1,14 @@
+//! SGH10 / SGH10L draw-wire encoder (CANopen, CiA 301 + CiA 406, LSS).
 #![no_std]
 #![no_main]
+
 use defmt_rtt as _;
+use embassy_executor::Spawner;
+use od_core::devices::sgh10::Sgh10;
 use panic_probe as _;
+
 #[embassy_executor::main]
-async fn main(_s: embassy_executor::Spawner) {
-    let _p = embassy_stm32::init(Default::default());
-    loop { embassy_time::Timer::after_millis(100).await; }
+async fn main(_spawner: Spawner) {
+    let board = boards::sgh10::take();
+    firmware::run::run(Sgh10::new(board.variant), board.mcu, board.io).await
 }

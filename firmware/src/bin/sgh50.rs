@@ -1,9 +1,15 @@
+//! SGH50 draw-wire encoder, single or one channel of the redundant version (CANopen, CiA 301 +
+//! CiA 406, LSS): the channel comes from the board's straps.
 #![no_std]
 #![no_main]
+
 use defmt_rtt as _;
+use embassy_executor::Spawner;
+use od_core::devices::sgh50::Sgh50;
 use panic_probe as _;
+
 #[embassy_executor::main]
-async fn main(_s: embassy_executor::Spawner) {
-    let _p = embassy_stm32::init(Default::default());
-    loop { embassy_time::Timer::after_millis(100).await; }
+async fn main(_spawner: Spawner) {
+    let board = boards::sgh50::take();
+    firmware::run::run(Sgh50::new(board.variant), board.mcu, board.io).await
 }

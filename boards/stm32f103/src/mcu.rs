@@ -1,0 +1,104 @@
+//! What every board shares: the clocks, the bxCAN with its transceiver, the parameter flash, the
+//! independent watchdog, the reset cause, the unique ID and the variant straps.
+
+use board_plan::reset::ResetCause;
+use board_plan::straps::Straps;
+use embassy_stm32::can::{self, Can};
+use embassy_stm32::flash::{Blocking, Flash};
+use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
+use embassy_stm32::peripherals::{CAN, FLASH, IWDG, PA11, PA12, PB5};
+use embassy_stm32::rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPreDiv, PllSource, Sysclk};
+use embassy_stm32::time::Hertz;
+use embassy_stm32::wdg::IndependentWatchdog;
+use embassy_stm32::{bind_interrupts, pac, Config, Peri};
+
+bind_interrupts!(
+    /// The bxCAN's four interrupts, bound to Embassy's handlers.
+    pub struct CanIrqs {
+        USB_HP_CAN1_TX => can::TxInterruptHandler<CAN>;
+        USB_LP_CAN1_RX0 => can::Rx0InterruptHandler<CAN>;
+        CAN1_RX1 => can::Rx1InterruptHandler<CAN>;
+        CAN1_SCE => can::SceInterruptHandler<CAN>;
+    }
+);
+
+/// The watchdog's timeout: the main loop turns at least once per sample period (1 ms) and a
+/// parameter save (one 1 KiB page erased, at most 40 ms on the F103, plus the writes) is the
+/// longest it is busy, so 256 ms only expires when the loop is stuck.
+pub const WATCHDOG_TIMEOUT_US: u32 = 256_000;
+
+/// The clocks of every board: 8 MHz HSE crystal, PLL ×9 = 72 MHz SYSCLK and AHB, APB2 72 MHz,
+/// APB1 36 MHz (the bxCAN clock `board_plan::timing::APB1_HZ` computes the bit timing for).
+pub fn config() -> Config {
+    let mut config = Config::default();
+    config.rcc.hse = Some(Hse { freq: Hertz(8_000_000), mode: HseMode::Oscillator });
+    config.rcc.pll = Some(Pll { src: PllSource::HSE, prediv: PllPreDiv::DIV1, mul: PllMul::MUL9 });
+    config.rcc.sys = Sysclk::PLL1_P;
+    config.rcc.ahb_pre = AHBPrescaler::DIV1;
+    config.rcc.apb1_pre = APBPrescaler::DIV2;
+    config.rcc.apb2_pre = APBPrescaler::DIV1;
+    config
+}
+
+/// What the RCC recorded as the cause of this reset; clears the flags, so the next reset
+/// records its own cause.
+pub fn take_reset_cause() -> ResetCause {
+    let csr = pac::RCC.csr().read().0;
+    pac::RCC.csr().modify(|w| w.set_rmvf(true));
+    ResetCause::from_csr(csr)
+}
+
+/// Reads the four variant straps (PB12..PB15) once: pull-ups on, 10 µs to settle, read, pins
+/// released (a fitted strap draws no current afterwards).
+pub fn read_straps(pins: [Peri<'_, AnyPin>; 4]) -> Straps {
+    let inputs = pins.map(|p| Input::new(p, Pull::Up));
+    embassy_time::block_for(embassy_time::Duration::from_micros(10));
+    let mut levels = 0u8;
+    for (k, input) in inputs.iter().enumerate() {
+        if input.is_high() {
+            levels |= 1 << k;
+        }
+    }
+    Straps(levels)
+}
+
+/// The peripherals every board has.
+pub struct Mcu {
+    /// The bxCAN, in sleep mode until the firmware configures and enables it.
+    pub can: Can<'static>,
+    /// The transceiver's standby pin (high = standby): the firmware drives it low once the
+    /// controller runs.
+    pub standby: Output<'static>,
+    /// The flash; the parameter pages are the region `memory.x` reserves.
+    pub flash: Flash<'static, Blocking>,
+    /// The independent watchdog, not yet started.
+    pub watchdog: IndependentWatchdog<'static, IWDG>,
+    /// Why the MCU reset.
+    pub reset: ResetCause,
+    /// The MCU's 96-bit unique device ID.
+    pub uid: [u8; 12],
+}
+
+impl Mcu {
+    /// Takes the shared peripherals.
+    pub fn new(
+        can: Peri<'static, CAN>,
+        rx: Peri<'static, PA11>,
+        tx: Peri<'static, PA12>,
+        standby: Peri<'static, PB5>,
+        flash: Peri<'static, FLASH>,
+        iwdg: Peri<'static, IWDG>,
+    ) -> Mcu {
+        let reset = take_reset_cause();
+        // Standby until the controller is configured: a board never disturbs the bus at reset.
+        let standby = Output::new(standby, Level::High, Speed::Low);
+        Mcu {
+            can: Can::new(can, rx, tx, CanIrqs),
+            standby,
+            flash: Flash::new_blocking(flash),
+            watchdog: IndependentWatchdog::new(iwdg, WATCHDOG_TIMEOUT_US),
+            reset,
+            uid: embassy_stm32::uid::uid(),
+        }
+    }
+}

@@ -1,0 +1,229 @@
+//! The bxCAN as the node's bus: bit timing from `board_plan::timing`, acceptance filters from
+//! the node's receive identifiers, a receive queue that the interrupt fills without ever
+//! blocking, a transmit queue that hands the mailboxes the most urgent frame first, and the
+//! controller's error state as the core's [`BusEvent`]s.
+//!
+//! Bus-off recovery is the controller's own (automatic bus-off management, set by Embassy's
+//! `enable`): after 128 × 11 recessive bits it is back, and [`Bus::events`] reports both
+//! changes so the device raises and clears its EMCYs and LED states.
+
+use board_plan::errors::{ErrorTracker, Esr};
+use board_plan::filters::{banks, Bank, BANKS};
+use board_plan::timing;
+use board_plan::txq::TxQueue;
+use core::num::{NonZeroU16, NonZeroU8};
+use embassy_futures::select::{select, Either};
+use embassy_stm32::can::filter::{BankConfig, ListEntry16, ListEntry32, Mask32};
+use embassy_stm32::can::util::NominalBitTiming;
+use embassy_stm32::can::{
+    BufferedCanRx, Can, CanTx, ExtendedId, Fifo, Frame as HwFrame, Id, Mailbox, RxBuf as HwRxBuf, StandardId,
+};
+use embassy_stm32::pac;
+use heapless::Vec;
+use od_core::node::BusEvent;
+use od_core::{Bitrate, CanId, Frame};
+
+pub use board_plan::filters::RxId;
+
+/// Frames the receive queue holds between two turns of the loop (the hardware FIFO has 3).
+pub const RX_DEPTH: usize = 32;
+
+/// The receive queue's storage.
+pub type RxBuf = HwRxBuf<RX_DEPTH>;
+
+/// The events one look at the controller can produce: the error-state changes and a lost frame.
+pub type Events = Vec<BusEvent, 5>;
+
+/// The node's CAN bus.
+pub struct Bus {
+    can: Can<'static>,
+    tx: CanTx<'static>,
+    rx: BufferedCanRx<'static, RX_DEPTH>,
+    queue: TxQueue,
+    errors: ErrorTracker,
+}
+
+/// The bxCAN bit timing for a CANopen rate, computed by `board_plan::timing` at compile time.
+fn bit_timing(rate: Bitrate) -> NominalBitTiming {
+    let t = timing::of(rate);
+    NominalBitTiming {
+        prescaler: NonZeroU16::new(t.prescaler).unwrap_or(NonZeroU16::MIN),
+        seg1: NonZeroU8::new(t.seg1).unwrap_or(NonZeroU8::MIN),
+        seg2: NonZeroU8::new(t.seg2).unwrap_or(NonZeroU8::MIN),
+        sync_jump_width: NonZeroU8::new(t.sjw).unwrap_or(NonZeroU8::MIN),
+    }
+}
+
+/// The identifier as the driver takes it.
+fn hw_id(id: CanId) -> Option<Id> {
+    match id {
+        CanId::Std(id) => StandardId::new(id).map(Id::Standard),
+        CanId::Ext(id) => ExtendedId::new(id).map(Id::Extended),
+    }
+}
+
+/// A core frame as the driver takes it (`None` for an identifier out of range, which the core
+/// never makes).
+fn to_hw(frame: &Frame) -> Option<HwFrame> {
+    let id = hw_id(frame.id)?;
+    if frame.rtr {
+        HwFrame::new_remote(id, frame.len as usize).ok()
+    } else {
+        HwFrame::new_data(id, frame.payload()).ok()
+    }
+}
+
+/// A received frame as the core takes it.
+fn from_hw(frame: &HwFrame) -> Frame {
+    let id = match frame.id() {
+        Id::Standard(id) => CanId::Std(id.as_raw()),
+        Id::Extended(id) => CanId::Ext(id.as_raw()),
+    };
+    let header = frame.header();
+    if header.rtr() {
+        Frame::remote(id, header.len())
+    } else {
+        Frame::new(id, frame.data())
+    }
+}
+
+/// One filter bank as the driver programs it.
+fn bank_config(bank: &Bank) -> BankConfig {
+    let entry32 = |r: &RxId| match hw_id(r.id) {
+        Some(id) if r.rtr => ListEntry32::remote_frames_with_id(id),
+        Some(id) => ListEntry32::data_frames_with_id(id),
+        None => ListEntry32::data_frames_with_id(StandardId::ZERO),
+    };
+    match bank {
+        Bank::List16(entries) => BankConfig::List16(entries.map(|r| {
+            let id = match r.id {
+                CanId::Std(id) => StandardId::new(id).unwrap_or(StandardId::ZERO),
+                CanId::Ext(_) => StandardId::ZERO,
+            };
+            if r.rtr {
+                ListEntry16::remote_frames_with_id(id)
+            } else {
+                ListEntry16::data_frames_with_id(id)
+            }
+        })),
+        Bank::List32(entries) => BankConfig::List32([entry32(&entries[0]), entry32(&entries[1])]),
+        Bank::AcceptAll => BankConfig::Mask32(Mask32::accept_all()),
+    }
+}
+
+impl Bus {
+    /// Configures the controller for `rate`, joins the bus (after 11 recessive bits) and starts
+    /// receiving into `rx`. No filter bank is enabled until [`Bus::set_filters`]: the controller
+    /// receives nothing before the node says what it wants.
+    pub async fn start(mut can: Can<'static>, rx: &'static mut RxBuf, rate: Bitrate) -> Bus {
+        can.modify_filters().clear();
+        can.modify_config().set_bit_timing(bit_timing(rate));
+        can.enable().await;
+        let (tx, rx_half) = can.split();
+        Bus { can, tx, rx: rx_half.buffered(rx), queue: TxQueue::default(), errors: ErrorTracker::default() }
+    }
+
+    /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset): the frames
+    /// waiting for the old rate are dropped, the controller re-joins the bus at the new one.
+    pub async fn set_bitrate(&mut self, rate: Bitrate) {
+        for mb in [Mailbox::Mailbox0, Mailbox::Mailbox1, Mailbox::Mailbox2] {
+            self.tx.abort(mb);
+        }
+        self.queue.clear();
+        self.can.modify_config().set_bit_timing(bit_timing(rate));
+        self.can.enable().await;
+    }
+
+    /// Programs the acceptance filters to pass exactly `ids` (all banks on FIFO 0, so frames
+    /// keep their order).
+    pub fn set_filters(&mut self, ids: &[RxId]) {
+        let banks = banks(ids, BANKS);
+        let mut filters = self.can.modify_filters();
+        filters.clear();
+        for (i, bank) in banks.iter().enumerate() {
+            filters.enable_bank(i as u8, Fifo::Fifo0, bank_config(bank));
+        }
+    }
+
+    /// Queues a frame for transmission.
+    pub fn send(&mut self, frame: Frame) {
+        self.queue.push(frame);
+    }
+
+    /// Frames dropped because the transmit queue was full (the bus is off or jammed).
+    pub fn dropped(&self) -> u32 {
+        self.queue.dropped()
+    }
+
+    /// Hands the mailboxes the most urgent waiting frames. A frame a mailbox gave up for a more
+    /// urgent one goes back into the queue.
+    pub fn pump(&mut self) {
+        while let Some(frame) = self.queue.peek() {
+            let Some(hw) = to_hw(frame) else {
+                self.queue.pop();
+                continue;
+            };
+            match self.tx.try_write(&hw) {
+                Ok(status) => {
+                    self.queue.pop();
+                    if let Some(back) = status.dequeued_frame() {
+                        self.queue.push(from_hw(back));
+                    }
+                }
+                Err(_) => break,
+            }
+        }
+    }
+
+    /// The next received frame, if any.
+    pub fn receive(&mut self) -> Option<Frame> {
+        self.rx.try_read().ok().map(|envelope| from_hw(&envelope.frame))
+    }
+
+    /// What changed in the controller since the last look: a frame lost to a full receive FIFO,
+    /// the last protocol error, the error counters and the fault confinement state.
+    pub fn events(&mut self) -> Events {
+        let can = pac::CAN;
+        let mut events = Events::new();
+        if can.rfr(0).read().fovr() {
+            can.rfr(0).write(|w| w.set_fovr(true));
+            let _ = events.push(BusEvent::RxOverrun);
+        }
+        let esr = Esr::from_bits(can.esr().read().0);
+        if (1..=6).contains(&esr.lec) {
+            // "Set by software": a new error shows up as a code 1..6 again.
+            can.esr().write_value(pac::can::regs::Esr(7 << 4));
+        }
+        for event in self.errors.update(esr) {
+            let _ = events.push(event);
+        }
+        events
+    }
+
+    /// Waits until a frame is received or a mailbox can take the next waiting frame.
+    pub async fn ready(&mut self) {
+        if self.queue.is_empty() {
+            self.rx.wait_not_empty().await;
+            return;
+        }
+        // A mailbox is free but refused the frame: one with the same identifier is still
+        // pending (the bxCAN would not keep their order), so wait for the mailboxes to empty.
+        let any_free = can_take_more();
+        let tx = async {
+            if any_free {
+                self.tx.flush_all().await
+            } else {
+                self.tx.flush_any().await
+            }
+        };
+        match select(self.rx.wait_not_empty(), tx).await {
+            Either::First(()) | Either::Second(()) => {}
+        }
+    }
+}
+
+/// Is any transmit mailbox empty?
+fn can_take_more() -> bool {
+    let tsr = pac::CAN.tsr().read();
+    (0..3).any(|i| tsr.tme(i))
+}

@@ -1,0 +1,123 @@
+//! Boot and the main loop.
+//!
+//! One loop does everything, in this order each turn: feed the watchdog, hand the node the
+//! received frames and the controller's events, run its timers when due, carry out its outputs
+//! (frames into the transmit queue, parameter saves, bit-rate switches), re-program the filters
+//! when the node's identifiers changed, fill the mailboxes, show the device's state; then wait
+//! for whichever comes first: a frame, a free mailbox, the node's next deadline, the next change
+//! of the LEDs, or the next sample period. The sample period (1 ms) makes the loop turn at least
+//! that often, which is what keeps the watchdog fed: a loop that stops turning resets the MCU.
+
+use board_plan::filters::receive_ids;
+use board_plan::straps::serial_from_uid;
+use boards::mcu::Mcu;
+use boards::Io;
+use embassy_futures::select::{select3, Either3};
+use embassy_time::{Duration, Ticker, Timer};
+use od_core::encoder::program_serial;
+use od_core::node::{Device, Node, Output};
+use od_core::time::earliest;
+use od_core::Instant;
+use static_cell::StaticCell;
+
+use crate::can::{Bus, RxBuf};
+use crate::now;
+use crate::params::{self, Params};
+
+/// Powers the node on from what the parameter pages hold. A board whose pages hold no serial
+/// number (factory data, 1018h sub 4) gets one derived from the MCU's unique ID, in RAM only:
+/// the production line writes the real one, and the first save keeps whichever the node has.
+pub fn boot<D: Device>(device: D, params: &mut Params, uid: &[u8; 12]) -> Node<D> {
+    let loaded = params.load();
+    let has_serial = loaded.image().is_some_and(|image| image.get(0x1018, 4).is_some());
+    let mut node = Node::boot(device, &loaded);
+    if !has_serial {
+        let (_, core) = node.split();
+        program_serial(&mut core.od, serial_from_uid(uid));
+    }
+    defmt::info!(
+        "boot: node-ID {=u8}, {=u32} kbit/s, parameters {}",
+        node.core().node_id,
+        node.core().bitrate.kbit(),
+        if loaded.image().is_some() { "stored" } else { "defaults" }
+    );
+    node
+}
+
+/// Waits for `deadline` (forever if there is none).
+async fn until(deadline: Option<Instant>) {
+    match deadline {
+        Some(t) => Timer::at(embassy_time::Instant::from_micros(t.as_micros())).await,
+        None => core::future::pending().await,
+    }
+}
+
+/// Runs `device` on the board for ever: powers it on from the parameter pages in `mcu`'s flash,
+/// joins the bus at the stored bit rate, and loops.
+pub async fn run<D: Device, I: Io<D>>(device: D, mcu: Mcu, mut io: I) -> ! {
+    static RX: StaticCell<RxBuf> = StaticCell::new();
+    let Mcu { can, mut standby, flash, mut watchdog, reset, uid } = mcu;
+    if reset.is_fault() {
+        defmt::warn!("reset by the watchdog: the main loop had stopped");
+    }
+    let mut params = params::open(flash, device.table());
+    let mut node = boot(device, &mut params, &uid);
+    let mut bus = Bus::start(can, RX.init(RxBuf::new()), node.core().bitrate).await;
+    standby.set_low();
+    watchdog.unleash();
+
+    let period = Duration::from_micros(io.period_us(node.device()) as u64);
+    let mut ticker = Ticker::every(period);
+    let mut filters = None;
+    let mut dropped = 0;
+    loop {
+        watchdog.pet();
+        let t = now();
+        while let Some(frame) = bus.receive() {
+            node.on_frame(&frame, t);
+        }
+        for event in bus.events() {
+            node.on_bus_event(event, t);
+        }
+        if node.next_deadline().is_some_and(|d| d <= t) {
+            node.poll(t);
+        }
+        while let Some(output) = node.next_output() {
+            match output {
+                Output::Frame(frame) => bus.send(frame),
+                Output::Store(groups) => {
+                    watchdog.pet();
+                    let result = params.save(node.core(), groups);
+                    if result.is_err() {
+                        defmt::error!("parameter save failed");
+                    }
+                    node.store_done(result.map_err(|_| ()), now());
+                }
+                Output::SetBitrate(rate) => {
+                    defmt::info!("bit rate {=u32} kbit/s", rate.kbit());
+                    bus.set_bitrate(rate).await;
+                }
+            }
+        }
+        let generation = node.rx_ids_generation();
+        if filters != Some(generation) {
+            bus.set_filters(&receive_ids(node.core()));
+            filters = Some(generation);
+        }
+        bus.pump();
+        if bus.dropped() != dropped {
+            dropped = bus.dropped();
+            defmt::warn!("transmit queue full: {=u32} frames dropped", dropped);
+        }
+        let (device, core) = node.split();
+        let led_change = io.show(device, core, t);
+
+        match select3(bus.ready(), until(earliest(node.next_deadline(), led_change)), ticker.next()).await {
+            Either3::Third(()) => {
+                let (device, core) = node.split();
+                io.sample(device, core, now());
+            }
+            Either3::First(()) | Either3::Second(()) => {}
+        }
+    }
+}
