@@ -19,6 +19,7 @@ use embassy_stm32::can::{
     BufferedCanRx, Can, CanTx, ExtendedId, Fifo, Frame as HwFrame, Id, Mailbox, RxBuf as HwRxBuf, StandardId,
 };
 use embassy_stm32::pac;
+use embassy_time::{with_timeout, Duration};
 use heapless::Vec;
 use od_core::node::BusEvent;
 use od_core::{Bitrate, CanId, Frame};
@@ -27,6 +28,10 @@ pub use board_plan::filters::RxId;
 
 /// Frames the receive queue holds between two turns of the loop (the hardware FIFO has 3).
 pub const RX_DEPTH: usize = 32;
+
+/// How long a bit-rate switch waits for the frames queued at the old rate: a few frames even at
+/// 10 kbit/s (about 13 ms a frame), and well inside the watchdog's 256 ms.
+pub const FLUSH_TIMEOUT: Duration = Duration::from_millis(100);
 
 /// The receive queue's storage.
 pub type RxBuf = HwRxBuf<RX_DEPTH>;
@@ -123,9 +128,22 @@ impl Bus {
         Bus { can, tx, rx: rx_half.buffered(rx), queue: TxQueue::default(), errors: ErrorTracker::default() }
     }
 
-    /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset): the frames
-    /// waiting for the old rate are dropped, the controller re-joins the bus at the new one.
+    /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset). The frames the
+    /// node queued before the switch belong to the old rate: they go out first, as long as the
+    /// bus takes them within [`FLUSH_TIMEOUT`]; what is left then is dropped. The controller
+    /// re-joins the bus at the new rate after 11 recessive bits.
     pub async fn set_bitrate(&mut self, rate: Bitrate) {
+        let _ = with_timeout(FLUSH_TIMEOUT, async {
+            loop {
+                self.pump();
+                let empty = self.queue.is_empty();
+                wait_mailboxes(&self.tx).await;
+                if empty && self.tx.is_idle() {
+                    break;
+                }
+            }
+        })
+        .await;
         for mb in [Mailbox::Mailbox0, Mailbox::Mailbox1, Mailbox::Mailbox2] {
             self.tx.abort(mb);
         }
@@ -206,19 +224,20 @@ impl Bus {
             self.rx.wait_not_empty().await;
             return;
         }
-        // A mailbox is free but refused the frame: one with the same identifier is still
-        // pending (the bxCAN would not keep their order), so wait for the mailboxes to empty.
-        let any_free = can_take_more();
-        let tx = async {
-            if any_free {
-                self.tx.flush_all().await
-            } else {
-                self.tx.flush_any().await
-            }
-        };
-        match select(self.rx.wait_not_empty(), tx).await {
+        match select(self.rx.wait_not_empty(), wait_mailboxes(&self.tx)).await {
             Either::First(()) | Either::Second(()) => {}
         }
+    }
+}
+
+/// Waits until a mailbox can take the next frame. If one is free already, the frame was refused
+/// because one with the same identifier is still pending (the bxCAN would not keep their
+/// order): then wait for every mailbox to empty, rather than return at once and spin.
+async fn wait_mailboxes(tx: &CanTx<'static>) {
+    if can_take_more() {
+        tx.flush_all().await
+    } else {
+        tx.flush_any().await
     }
 }
 

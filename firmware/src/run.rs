@@ -5,15 +5,15 @@
 //! (frames into the transmit queue, parameter saves, bit-rate switches), re-program the filters
 //! when the node's identifiers changed, fill the mailboxes, show the device's state; then wait
 //! for whichever comes first: a frame, a free mailbox, the node's next deadline, the next change
-//! of the LEDs, or the next sample period. The sample period (1 ms) makes the loop turn at least
-//! that often, which is what keeps the watchdog fed: a loop that stops turning resets the MCU.
+//! of the LEDs, or the next sample. The sample period (1 ms) makes the loop turn at least that
+//! often, which is what keeps the watchdog fed: a loop that stops turning resets the MCU.
 
 use board_plan::filters::receive_ids;
 use board_plan::straps::serial_from_uid;
 use boards::mcu::Mcu;
 use boards::Io;
 use embassy_futures::select::{select3, Either3};
-use embassy_time::{Duration, Ticker, Timer};
+use embassy_time::{Duration, Timer};
 use od_core::encoder::program_serial;
 use od_core::node::{Device, Node, Output};
 use od_core::time::earliest;
@@ -67,7 +67,7 @@ pub async fn run<D: Device, I: Io<D>>(device: D, mcu: Mcu, mut io: I) -> ! {
     watchdog.unleash();
 
     let period = Duration::from_micros(io.period_us(node.device()) as u64);
-    let mut ticker = Ticker::every(period);
+    let mut next_sample = embassy_time::Instant::now() + period;
     let mut filters = None;
     let mut dropped = 0;
     loop {
@@ -112,10 +112,17 @@ pub async fn run<D: Device, I: Io<D>>(device: D, mcu: Mcu, mut io: I) -> ! {
         let (device, core) = node.split();
         let led_change = io.show(device, core, t);
 
-        match select3(bus.ready(), until(earliest(node.next_deadline(), led_change)), ticker.next()).await {
+        match select3(bus.ready(), until(earliest(node.next_deadline(), led_change)), Timer::at(next_sample)).await {
             Either3::Third(()) => {
                 let (device, core) = node.split();
                 io.sample(device, core, now());
+                // On the period grid; a period the loop missed (a flash erase) is skipped, not
+                // made up in a burst of samples at one instant.
+                next_sample += period;
+                let late = embassy_time::Instant::now();
+                if next_sample <= late {
+                    next_sample = late + period;
+                }
             }
             Either3::First(()) | Either3::Second(()) => {}
         }
