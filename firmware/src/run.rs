@@ -62,8 +62,10 @@ pub async fn run<D: Device, I: Io<D>>(device: D, mcu: Mcu, mut io: I) -> ! {
     }
     let mut params = params::open(flash, device.table());
     let mut node = boot(device, &mut params, &uid);
-    let mut bus = Bus::start(can, RX.init(RxBuf::new()), node.core().bitrate).await;
+    // The transceiver leaves standby only now; the controller, in sleep until `Bus::start`
+    // enables it, keeps its TX pin recessive meanwhile.
     standby.set_low();
+    let mut bus = Bus::start(can, RX.init(RxBuf::new()), node.core().bitrate).await;
     watchdog.unleash();
 
     let period = Duration::from_micros(io.period_us(node.device()) as u64);
