@@ -12,6 +12,7 @@
 #![no_std]
 #![deny(missing_docs)]
 
+pub mod ap10t;
 pub mod leds;
 pub mod mcu;
 pub mod sensor;
