@@ -24,7 +24,7 @@ use heapless::Vec;
 use od_core::node::BusEvent;
 use od_core::{Bitrate, CanId, Frame};
 
-pub use board_plan::filters::RxId;
+pub use od_core::RxId;
 
 /// Frames the receive queue holds between two turns of the loop (the hardware FIFO has 3).
 pub const RX_DEPTH: usize = 32;

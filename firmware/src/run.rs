@@ -8,7 +8,6 @@
 //! of the LEDs, or the next sample. The sample period (1 ms) makes the loop turn at least that
 //! often, which is what keeps the watchdog fed: a loop that stops turning resets the MCU.
 
-use board_plan::filters::receive_ids;
 use board_plan::straps::serial_from_uid;
 use boards::mcu::Mcu;
 use boards::Io;
@@ -103,7 +102,7 @@ pub async fn run<D: Device, I: Io<D>>(device: D, mcu: Mcu, mut io: I) -> ! {
         }
         let generation = node.rx_ids_generation();
         if filters != Some(generation) {
-            bus.set_filters(&receive_ids(node.core()));
+            bus.set_filters(&node.rx_ids());
             filters = Some(generation);
         }
         bus.pump();

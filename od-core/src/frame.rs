@@ -45,6 +45,34 @@ impl CanId {
     }
 }
 
+/// One kind of frame a node receives: an identifier, as a data frame or as a remote frame. The
+/// node's list of them ([`crate::Node::rx_ids`]) is what a shell programs into its CAN
+/// controller's acceptance filters.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug)]
+pub struct RxId {
+    /// The identifier.
+    pub id: CanId,
+    /// Remote frames rather than data frames.
+    pub rtr: bool,
+}
+
+impl RxId {
+    /// Data frames with identifier `id`.
+    pub const fn data(id: CanId) -> RxId {
+        RxId { id, rtr: false }
+    }
+
+    /// Remote frames with identifier `id`.
+    pub const fn remote(id: CanId) -> RxId {
+        RxId { id, rtr: true }
+    }
+
+    /// Is `frame` of this kind?
+    pub fn matches(&self, frame: &Frame) -> bool {
+        frame.id == self.id && frame.rtr == self.rtr
+    }
+}
+
 /// One CAN 2.0 frame.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Frame {

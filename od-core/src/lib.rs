@@ -26,7 +26,7 @@ pub mod time;
 
 pub use abort::Abort;
 pub use bitrate::Bitrate;
-pub use frame::{CanId, Frame};
+pub use frame::{CanId, Frame, RxId};
 pub use nmt::NmtState;
 pub use node::{BusEvent, Core, Device, Node, Output};
 pub use time::Instant;

@@ -8,7 +8,7 @@
 use crate::abort::Abort;
 use crate::bitrate::Bitrate;
 use crate::emcy::{self, Emcy};
-use crate::frame::{CanId, Frame};
+use crate::frame::{CanId, Frame, RxId};
 use crate::guarding::{self, Guarding};
 use crate::heartbeat::{self, Heartbeat};
 use crate::lss::{self, Lss, LssEvent};
@@ -35,6 +35,10 @@ pub enum Output {
 /// How many outputs may wait for the shell. A node produces at most a handful per frame
 /// or tick; the shell drains the queue after each call.
 pub const OUTBOX_DEPTH: usize = 32;
+
+/// Most frame kinds [`Node::rx_ids`] lists: LSS, NMT, SDO, guarding and SYNC, two for each of
+/// up to [`pdo::MAX_RPDOS`] RPDOs and one for each TPDO.
+pub const MAX_RX_IDS: usize = 5 + 2 * pdo::MAX_RPDOS + pdo::MAX_TPDOS;
 
 /// Outputs waiting for the shell.
 #[derive(Clone, Default)]
@@ -398,21 +402,23 @@ impl<D: Device> Node<D> {
         earliest(next, self.device.next_deadline())
     }
 
-    /// Every identifier the node must receive, for the shell's hardware filters: LSS 7E5h (if
-    /// the device has LSS) and, with a node-ID, NMT 000h, SYNC (1005h), SDO 600h + node-ID,
-    /// node guarding 700h + node-ID, the valid RPDOs and the valid TPDOs that accept a
-    /// remote request. It changes only when [`Node::rx_ids_generation`] does.
-    pub fn rx_ids(&self) -> heapless::Vec<CanId, 16> {
+    /// Every frame the node acts on, in some state, for the shell's acceptance filters: LSS
+    /// 7E5h (if the device has LSS) and, with a node-ID, NMT 000h, the SDO request 600h +
+    /// node-ID, the node-guarding remote frame 700h + node-ID, SYNC (1005h), the valid RPDOs
+    /// (data and remote) and the valid TPDOs that accept a remote request (remote). Without
+    /// duplicates; frames of any other kind the node ignores, so a filter that passes exactly
+    /// these loses nothing. It changes only when [`Node::rx_ids_generation`] does.
+    pub fn rx_ids(&self) -> heapless::Vec<RxId, MAX_RX_IDS> {
         let mut ids = heapless::Vec::new();
         let core = &self.core;
         if core.lss.enabled() {
-            let _ = ids.push(CanId::Std(lss::RX_ID));
+            let _ = ids.push(RxId::data(CanId::Std(lss::RX_ID)));
         }
         if core.configured() {
             let id = core.node_id as u16;
-            for x in [0x000, 0x600 + id, 0x700 + id] {
-                let _ = ids.push(CanId::Std(x));
-            }
+            let _ = ids.push(RxId::data(CanId::Std(0x000)));
+            let _ = ids.push(RxId::data(CanId::Std(0x600 + id)));
+            let _ = ids.push(RxId::remote(CanId::Std(0x700 + id)));
             core.pdo.rx_ids(&mut ids);
         }
         ids

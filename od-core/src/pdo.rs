@@ -12,7 +12,7 @@
 //! ("SYNC and PDO", D-PDO-n) records.
 
 use crate::abort::Abort;
-use crate::frame::{CanId, Frame};
+use crate::frame::{CanId, Frame, RxId};
 use crate::nmt::NmtState;
 use crate::node::Core;
 use crate::od::{CoreHook, DataType, Od, MAX_ENTRIES};
@@ -235,22 +235,25 @@ impl Pdos {
         self.generation = self.generation.wrapping_add(1);
     }
 
-    /// The identifiers the PDO layer receives: SYNC, valid RPDOs, and valid TPDOs that accept
-    /// a remote request. Pushed into `out` (duplicates and overflow skipped).
-    pub fn rx_ids<const N: usize>(&self, out: &mut heapless::Vec<CanId, N>) {
-        let mut push = |id: CanId| {
+    /// The frames the PDO layer receives: SYNC (data), each valid RPDO (data, and remote: the
+    /// device may answer an RPDO remote request, [`crate::node::Device::on_rpdo_rtr`]), and each
+    /// valid TPDO that accepts a remote request (remote). Pushed into `out` (duplicates and
+    /// overflow skipped).
+    pub fn rx_ids<const N: usize>(&self, out: &mut heapless::Vec<RxId, N>) {
+        let mut push = |id: RxId| {
             if !out.contains(&id) {
                 let _ = out.push(id);
             }
         };
         if let Some(id) = self.sync {
-            push(id);
+            push(RxId::data(id));
         }
         for r in self.rpdos().iter().filter(|r| r.valid) {
-            push(r.id);
+            push(RxId::data(r.id));
+            push(RxId::remote(r.id));
         }
         for t in self.tpdos().iter().filter(|t| t.valid && t.rtr) {
-            push(t.id);
+            push(RxId::remote(t.id));
         }
     }
 

@@ -15,7 +15,7 @@ use od_core::abort::Abort;
 use od_core::devices::sgh10;
 use od_core::node::{Core, Device, Node, Output};
 use od_core::od::{Access::*, CoreHook::*, DataType::*, Entry, Hook};
-use od_core::{pdo, Bitrate, CanId, Frame, Instant};
+use od_core::{pdo, Bitrate, CanId, Frame, Instant, RxId};
 use tests_host::bus::{Bus, Station};
 
 // ---------------------------------------------------------------------------------------------
@@ -462,13 +462,15 @@ fn hardware_filter_ids() {
     let mut node = Node::new(Sgh10Pdo, 1, Bitrate::K500);
     node.poll(Instant::ZERO);
     let ids = node.rx_ids();
-    let want = [0x7E5, 0x000, 0x601, 0x701, 0x080, 0x181, 0x281].map(CanId::Std);
+    let d = |id| RxId::data(CanId::Std(id));
+    let r = |id| RxId::remote(CanId::Std(id));
+    let want = [d(0x7E5), d(0x000), d(0x601), r(0x701), d(0x080), r(0x181), r(0x281)];
     assert_eq!(&ids[..], &want[..]);
     let g = node.rx_ids_generation();
     let (device, core) = node.split();
     write(device, core, 0x1005, 0, &0x85u32.to_le_bytes(), Instant::ZERO).unwrap();
     assert_ne!(node.rx_ids_generation(), g);
-    assert!(node.rx_ids().contains(&CanId::Std(0x85)));
+    assert!(node.rx_ids().contains(&RxId::data(CanId::Std(0x85))));
     // A new node-ID (5F0Ah.01, then reset communication) changes them too.
     let g = node.rx_ids_generation();
     let (device, core) = node.split();
@@ -477,8 +479,8 @@ fn hardware_filter_ids() {
     assert_ne!(node.rx_ids_generation(), g);
     node.poll(Instant::ZERO);
     let ids = node.rx_ids();
-    assert!(ids.contains(&CanId::Std(0x605)) && ids.contains(&CanId::Std(0x705)));
-    assert!(!ids.contains(&CanId::Std(0x601)));
+    assert!(ids.contains(&RxId::data(CanId::Std(0x605))) && ids.contains(&RxId::remote(CanId::Std(0x705))));
+    assert!(!ids.iter().any(|r| r.id == CanId::Std(0x601)));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 //! The bxCAN acceptance filters: exactly the identifiers the node handles, nothing else.
 //!
-//! The node's receive identifiers ([`receive_ids`]: NMT, SYNC, SDO request, node-guarding
-//! RTR, LSS, receive PDOs) are packed into filter banks in identifier-list mode ([`banks`]):
+//! The node's receive identifiers ([`od_core::Node::rx_ids`]: the core says what it handles,
+//! data or remote frame each) are packed into filter banks in identifier-list mode ([`banks`]):
 //! four 11-bit identifiers per bank in 16-bit list mode, two 29-bit ones per bank in 32-bit
 //! list mode. The STM32F103 has 14 banks (56 standard identifiers), far more than a node
 //! needs; should a list not fit, the last bank accepts everything and the core sorts the
@@ -9,98 +9,40 @@
 //! changes (node-ID, SYNC or RPDO COB-ID written, LSS activation).
 
 use heapless::Vec;
-use od_core::frame::CanId;
-use od_core::node::Core;
+use od_core::frame::{CanId, RxId};
+use od_core::node::MAX_RX_IDS;
 
 /// Filter banks of the STM32F103's single bxCAN.
 pub const BANKS: usize = 14;
 
-/// Most receive identifiers a node has: NMT, SYNC, SDO, guarding, LSS and up to 11 RPDOs.
-pub const MAX_IDS: usize = 16;
+/// Most receive identifiers a node lists ([`od_core::Node::rx_ids`]).
+pub const MAX_IDS: usize = MAX_RX_IDS;
 
-/// The LSS slave's request identifier (CiA 305).
-pub const LSS_RX: u16 = 0x7E5;
-
-/// One identifier the node receives, as a data or a remote frame.
-#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Debug)]
-pub struct RxId {
-    /// The identifier.
-    pub id: CanId,
-    /// Remote frames (node guarding) rather than data frames.
-    pub rtr: bool,
-}
-
-impl RxId {
-    /// Data frames with the 11-bit identifier `id`.
-    pub const fn data(id: u16) -> RxId {
-        RxId { id: CanId::Std(id), rtr: false }
-    }
-
-    /// Remote frames with the 11-bit identifier `id`.
-    pub const fn remote(id: u16) -> RxId {
-        RxId { id: CanId::Std(id), rtr: true }
-    }
-
-    /// The 16-bit list-mode entry (RM0008 figure 230: STID[10:0] RTR IDE EXID[17:15]);
-    /// `None` for a 29-bit identifier.
-    pub const fn entry16(self) -> Option<u16> {
-        match self.id {
-            CanId::Std(id) => Some(((id & 0x7FF) << 5) | if self.rtr { 1 << 4 } else { 0 }),
-            CanId::Ext(_) => None,
-        }
-    }
-
-    /// The 32-bit list-mode entry (STID/EXID, IDE, RTR).
-    pub const fn entry32(self) -> u32 {
-        let rtr = if self.rtr { 1 << 1 } else { 0 };
-        match self.id {
-            CanId::Std(id) => ((id as u32 & 0x7FF) << 21) | rtr,
-            CanId::Ext(id) => ((id & 0x1FFF_FFFF) << 3) | (1 << 2) | rtr,
-        }
+/// The 16-bit list-mode entry of `r` (RM0008 figure 230: STID[10:0] RTR IDE EXID[17:15]);
+/// `None` for a 29-bit identifier.
+pub const fn entry16(r: RxId) -> Option<u16> {
+    match r.id {
+        CanId::Std(id) => Some(((id & 0x7FF) << 5) | if r.rtr { 1 << 4 } else { 0 }),
+        CanId::Ext(_) => None,
     }
 }
 
-/// The identifiers the node behind `core` must receive: NMT (000h); with a node-ID, the
-/// SYNC COB-ID (1005h), the SDO request (600h + node-ID), the node-guarding RTR (700h +
-/// node-ID) and every valid receive PDO COB-ID (1400h..15FFh sub 1, bit 31 clear); LSS (7E5h)
-/// when the node has an LSS slave. Sorted, without duplicates.
-pub fn receive_ids(core: &Core) -> Vec<RxId, MAX_IDS> {
-    let mut ids: Vec<RxId, MAX_IDS> = Vec::new();
-    let mut add = |r: RxId| {
-        if !ids.contains(&r) {
-            let _ = ids.push(r);
-        }
-    };
-    add(RxId::data(0x000));
-    if core.lss.enabled() {
-        add(RxId::data(LSS_RX));
+/// The 32-bit list-mode entry of `r` (STID/EXID, IDE, RTR).
+pub const fn entry32(r: RxId) -> u32 {
+    let rtr = if r.rtr { 1 << 1 } else { 0 };
+    match r.id {
+        CanId::Std(id) => ((id as u32 & 0x7FF) << 21) | rtr,
+        CanId::Ext(id) => ((id & 0x1FFF_FFFF) << 3) | (1 << 2) | rtr,
     }
-    if core.configured() {
-        let id = core.node_id as u16;
-        add(RxId::data(0x600 + id));
-        add(RxId::remote(0x700 + id));
-        if let Some(sync) = core.od.value(0x1005, 0) {
-            add(RxId { id: CanId::from_cob_id(sync), rtr: false });
-        }
-        for index in 0x1400..=0x15FF {
-            if let Some(cob) = core.od.value(index, 1) {
-                if cob & (1 << 31) == 0 {
-                    add(RxId { id: CanId::from_cob_id(cob), rtr: false });
-                }
-            }
-        }
-    }
-    ids.sort_unstable();
-    ids
 }
 
 /// How one filter bank is programmed.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum Bank {
-    /// 16-bit identifier list: four entries ([`RxId::entry16`]); an unused place repeats the
-    /// first entry.
+    /// 16-bit identifier list: four entries ([`entry16`]); an unused place repeats the first
+    /// entry.
     List16([RxId; 4]),
-    /// 32-bit identifier list: two entries ([`RxId::entry32`]); an unused place repeats the first.
+    /// 32-bit identifier list: two entries ([`entry32`]); an unused place repeats the first.
     List32([RxId; 2]),
     /// 32-bit mask mode, mask 0: every frame (only when the identifiers do not fit).
     AcceptAll,
@@ -111,7 +53,7 @@ impl Bank {
     pub const fn registers(&self) -> (u32, u32) {
         match self {
             Bank::List16(e) => (pack16(e[0], e[1]), pack16(e[2], e[3])),
-            Bank::List32(e) => (e[0].entry32(), e[1].entry32()),
+            Bank::List32(e) => (entry32(e[0]), entry32(e[1])),
             Bank::AcceptAll => (0, 0),
         }
     }
@@ -128,11 +70,11 @@ impl Bank {
 }
 
 const fn pack16(lo: RxId, hi: RxId) -> u32 {
-    let l = match lo.entry16() {
+    let l = match entry16(lo) {
         Some(v) => v,
         None => 0,
     };
-    let h = match hi.entry16() {
+    let h = match entry16(hi) {
         Some(v) => v,
         None => 0,
     };
@@ -179,18 +121,23 @@ pub fn accepted(banks: &[Bank], id: CanId, rtr: bool) -> bool {
 mod tests {
     use super::*;
 
+    fn data(id: u16) -> RxId {
+        RxId::data(CanId::Std(id))
+    }
+
     #[test]
     fn entries_follow_rm0008() {
-        assert_eq!(RxId::data(0x601).entry16(), Some(0x601 << 5));
-        assert_eq!(RxId::remote(0x701).entry16(), Some((0x701 << 5) | 0x10));
-        assert_eq!(RxId::data(0x7E5).entry32(), 0x7E5 << 21);
-        assert_eq!(RxId { id: CanId::Ext(0x18FF_0012), rtr: false }.entry32(), (0x18FF_0012 << 3) | 4);
-        assert_eq!(RxId { id: CanId::Ext(1), rtr: false }.entry16(), None);
+        assert_eq!(entry16(data(0x601)), Some(0x601 << 5));
+        assert_eq!(entry16(RxId::remote(CanId::Std(0x701))), Some((0x701 << 5) | 0x10));
+        assert_eq!(entry32(data(0x7E5)), 0x7E5 << 21);
+        assert_eq!(entry32(RxId::remote(CanId::Std(0x7E5))), (0x7E5 << 21) | 2);
+        assert_eq!(entry32(RxId::data(CanId::Ext(0x18FF_0012))), (0x18FF_0012 << 3) | 4);
+        assert_eq!(entry16(RxId::data(CanId::Ext(1))), None);
     }
 
     #[test]
     fn five_standard_ids_take_two_banks() {
-        let ids = [RxId::data(0), RxId::data(0x80), RxId::data(0x601), RxId::remote(0x701), RxId::data(0x7E5)];
+        let ids = [data(0), data(0x80), data(0x601), RxId::remote(CanId::Std(0x701)), data(0x7E5)];
         let b = banks(&ids, BANKS);
         assert_eq!(b.len(), 2);
         assert_eq!(b[0], Bank::List16([ids[0], ids[1], ids[2], ids[3]]));
@@ -207,7 +154,7 @@ mod tests {
 
     #[test]
     fn extended_ids_go_to_32_bit_banks() {
-        let ids = [RxId::data(0), RxId { id: CanId::Ext(0x1234_5678), rtr: false }];
+        let ids = [data(0), RxId::data(CanId::Ext(0x1234_5678))];
         let b = banks(&ids, BANKS);
         assert_eq!(b.len(), 2);
         assert_eq!(b[1], Bank::List32([ids[1], ids[1]]));
@@ -217,7 +164,7 @@ mod tests {
 
     #[test]
     fn overflow_accepts_everything() {
-        let ids: Vec<RxId, MAX_IDS> = (0..9).map(|i| RxId::data(0x200 + i)).collect();
+        let ids: Vec<RxId, MAX_IDS> = (0..9).map(|i| data(0x200 + i)).collect();
         assert_eq!(banks(&ids, 3).len(), 3);
         let b = banks(&ids, 2);
         assert_eq!(b.as_slice(), &[Bank::AcceptAll]);

@@ -217,7 +217,7 @@ fn sync_cob_id_rules() {
     assert_eq!(write(&mut n, 0x1005, 0, 0x2123_4567, at(0)), Ok(()));
     n.on_frame(&Frame::new(CanId::Ext(0x0123_4567), &[]), at(1));
     assert_eq!(frames(&mut n).len(), 1);
-    assert!(n.rx_ids().contains(&CanId::Ext(0x0123_4567)));
+    assert!(n.rx_ids().contains(&RxId::data(CanId::Ext(0x0123_4567))));
 }
 
 #[test]
@@ -343,8 +343,8 @@ fn rtr_rules() {
     n.on_frame(&Frame::std(0, &[0x01, 0x05]), at(0));
     n.on_frame(&Frame::remote(CanId::Std(0x185), 6), at(0));
     assert!(frames(&mut n).is_empty());
-    assert!(!n.rx_ids().contains(&CanId::Std(0x185)));
-    assert!(n.rx_ids().contains(&CanId::Std(0x285)));
+    assert!(!n.rx_ids().contains(&RxId::remote(CanId::Std(0x185))));
+    assert!(n.rx_ids().contains(&RxId::remote(CanId::Std(0x285))));
 }
 
 #[test]
@@ -387,12 +387,14 @@ fn synchronous_rpdo_applies_at_the_next_sync() {
 fn rx_ids_follow_the_configuration() {
     let mut n = node(false);
     let ids = n.rx_ids();
-    let want = [0x000, 0x605, 0x705, 0x080, 0x205, 0x305, 0x185, 0x285].map(CanId::Std);
+    let d = |id| RxId::data(CanId::Std(id));
+    let r = |id| RxId::remote(CanId::Std(id));
+    let want = [d(0x000), d(0x605), r(0x705), d(0x080), d(0x205), r(0x205), d(0x305), r(0x305), r(0x185), r(0x285)];
     assert_eq!(&ids[..], &want[..]);
     let g = n.rx_ids_generation();
     write(&mut n, 0x1400, 1, 0x8000_0205, at(0)).unwrap();
     assert_ne!(n.rx_ids_generation(), g);
-    assert!(!n.rx_ids().contains(&CanId::Std(0x205)));
+    assert!(!n.rx_ids().iter().any(|r| r.id == CanId::Std(0x205)));
     let g = n.rx_ids_generation();
     n.on_frame(&Frame::std(0, &[0x82, 0x05]), at(0));
     assert_ne!(n.rx_ids_generation(), g);
