@@ -17,8 +17,8 @@ use super::options::{DeviceSpec, Kind, Motion, UNCONFIGURED};
 use crate::flash::{FileFlash, RamFlash};
 use crate::segment::{Boot, NodeFlash, Station};
 
-/// The parameter pages each device reserves (two 1 KiB pages, as the firmware).
-pub const REGION: Region = Region { offset: 0, pages: 2 };
+/// The parameter pages each device reserves: four 1 KiB pages, as `memory.x` gives the firmware.
+pub const REGION: Region = Region { offset: 0, pages: 4 };
 
 /// An encoder node with its simulated sensor: the sensor is sampled at the device's period.
 pub struct Sensed<E: Encoder> {
