@@ -6,16 +6,20 @@
 //! - [`errors`]: the controller's error register turned into [`od_core::node::BusEvent`]s;
 //! - [`sensor`]: the SPI angle sensor's frame and the raw counts the devices take;
 //! - [`straps`]: the product variant from the strap pins, the serial number from the MCU;
+//! - [`lcd`] and [`keys`]: the AP10T's display (7-segment font, HT1621 transfers) and key
+//!   debouncing;
 //! - [`reset`]: why the MCU reset, from the RCC's reset flags;
 //! - [`txq`]: the transmit queue that hands frames to the mailboxes in priority order.
 //!
 //! The hardware side (Embassy, registers, pins) is in the `boards` crate and in `firmware/`,
 //! which are built for `thumbv7m-none-eabi` only.
-#![no_std]
+#![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 
 pub mod errors;
 pub mod filters;
+pub mod keys;
+pub mod lcd;
 pub mod reset;
 pub mod sensor;
 pub mod straps;

@@ -1,24 +1,29 @@
-//! The AP10T display board: the common MCU part, a segment-LCD driver chip on SPI2 for the two
-//! rows of six digits, two bi-colour LEDs and four keys. No straps, no sensor.
+//! The AP10T display board: the common MCU part, a Holtek HT1621 segment-LCD driver on SPI2
+//! for the two rows of six 7-segment digits, two bi-colour LEDs and four keys. No straps, no
+//! sensor.
 //!
-//! The board gives the device raw access: bytes to the LCD driver ([`Lcd::write`]), the key
-//! levels ([`Keys::pressed`]) and the LED pins ([`Leds::set`]); what the rows show, the key
-//! debouncing and the LED colours are the pure parts in `board_plan` and, with the device, in
-//! the core.
+//! The device (to come in the core) decides what the rows show and what a key does; the board
+//! shows a [`Screen`] ([`Lcd::show`]), reports debounced key changes ([`Keys::scan`]) and lights
+//! the LEDs ([`Leds::set`]). The protocol details, font and debouncing are in `board_plan::lcd`
+//! and `board_plan::keys`, host-tested.
 
+use board_plan::keys::{Change, Debouncer};
+use board_plan::lcd::{frame, Screen, INIT};
 use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
 use embassy_stm32::mode::Blocking;
-use embassy_stm32::peripherals::{PB12, PB13, PB14, PB15, SPI2};
+use embassy_stm32::peripherals::{PB12, PB13, PB15, SPI2};
 use embassy_stm32::spi::{self, Spi, MODE_0};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::Peri;
 
 use crate::mcu::{self, Mcu};
 
-/// SPI clock of the LCD driver: APB1 36 MHz / 64, well within any segment driver's limit.
-pub const LCD_SPI_HZ: u32 = 562_500;
+/// The HT1621's write clock: APB1 36 MHz / 256 = 140.6 kHz, under the driver's 150 kHz at 3 V.
+/// A whole display (18 bytes) takes 1 ms.
+pub const LCD_SPI_HZ: u32 = 140_625;
 
-/// The LCD driver on SPI2 (NSS PB12, SCK PB13, MISO PB14, MOSI PB15).
+/// The LCD driver on SPI2, transmit only: CS = NSS PB12, WR = SCK PB13, DATA = MOSI PB15 (the
+/// driver's RD is not connected; PB14 stays free).
 pub struct Lcd {
     spi: Spi<'static, Blocking, spi::mode::Master>,
     nss: Output<'static>,
@@ -30,17 +35,26 @@ impl Lcd {
         spi: Peri<'static, SPI2>,
         nss: Peri<'static, PB12>,
         sck: Peri<'static, PB13>,
-        miso: Peri<'static, PB14>,
         mosi: Peri<'static, PB15>,
     ) -> Lcd {
         let mut config = spi::Config::default();
         config.mode = MODE_0;
         config.frequency = Hertz(LCD_SPI_HZ);
-        Lcd { spi: Spi::new_blocking(spi, sck, mosi, miso, config), nss: Output::new(nss, Level::High, Speed::Low) }
+        Lcd { spi: Spi::new_blocking_txonly(spi, sck, mosi, config), nss: Output::new(nss, Level::High, Speed::Low) }
     }
 
-    /// Sends one transaction (a command sequence or the display RAM image) with NSS low.
-    pub fn write(&mut self, bytes: &[u8]) -> Result<(), spi::Error> {
+    /// Starts the driver (oscillator, bias, display on).
+    pub fn init(&mut self) -> Result<(), spi::Error> {
+        self.write(&INIT)
+    }
+
+    /// Shows `screen` (writes the driver's whole display RAM).
+    pub fn show(&mut self, screen: &Screen) -> Result<(), spi::Error> {
+        self.write(&frame(screen))
+    }
+
+    /// One transfer with CS low.
+    fn write(&mut self, bytes: &[u8]) -> Result<(), spi::Error> {
         self.nss.set_low();
         let result = self.spi.blocking_write(bytes);
         self.nss.set_high();
@@ -48,19 +62,28 @@ impl Lcd {
     }
 }
 
-/// The four keys (PA0..PA3, pull-ups, a pressed key reads low).
+/// The four keys (PA0 front key, PA1 "←", PA2 "*", PA3 "↑"; pull-ups, a pressed key reads
+/// low), debounced.
 pub struct Keys {
     pins: [Input<'static>; 4],
+    debouncer: Debouncer,
 }
 
 impl Keys {
-    /// The keys.
+    /// The keys, all released.
     pub fn new(pins: [Peri<'static, AnyPin>; 4]) -> Keys {
-        Keys { pins: pins.map(|p| Input::new(p, Pull::Up)) }
+        Keys { pins: pins.map(|p| Input::new(p, Pull::Up)), debouncer: Debouncer::new() }
     }
 
-    /// The raw levels as pressed keys: bit `k` set = key `k + 1` reads low now (not debounced).
-    pub fn pressed(&self) -> u8 {
+    /// Scans the keys at `now` (every sample period); returns the change of the debounced keys
+    /// (bits as `board_plan::keys` orders them), if any.
+    pub fn scan(&mut self, now: od_core::Instant) -> Option<Change> {
+        let raw = self.raw();
+        self.debouncer.scan(raw, now)
+    }
+
+    /// The raw levels as pressed keys: bit `k` set = key `k` reads low now.
+    fn raw(&self) -> u8 {
         let mut bits = 0;
         for (k, pin) in self.pins.iter().enumerate() {
             if pin.is_low() {
@@ -107,7 +130,7 @@ pub fn take() -> Board {
     let p = embassy_stm32::init(mcu::config());
     Board {
         mcu: Mcu::new(p.CAN, p.PA11, p.PA12, p.PB5, p.FLASH, p.IWDG),
-        lcd: Lcd::new(p.SPI2, p.PB12, p.PB13, p.PB14, p.PB15),
+        lcd: Lcd::new(p.SPI2, p.PB12, p.PB13, p.PB15),
         keys: Keys::new([p.PA0.into(), p.PA1.into(), p.PA2.into(), p.PA3.into()]),
         leds: Leds::new([p.PB0.into(), p.PB1.into(), p.PB10.into(), p.PB11.into()]),
     }
