@@ -169,6 +169,16 @@ impl<'a> Registry<'a> {
     }
 }
 
+/// The parameter pages ([`REGION`]) of a board the production line programmed with `node` (as
+/// LSS stores it) and `serial` (factory data), everything else at its default: what the
+/// simulator starts a new state file with, and what the Renode bench loads into the firmware's
+/// parameter pages (`renode/images`).
+pub fn factory_pages(table: &'static [Entry], node: Option<u8>, serial: Option<u32>) -> Result<Vec<u8>, String> {
+    let mut p = ParamFlash::new(RamFlash::new(REGION.pages as usize), REGION, identity(table));
+    factory(&mut p, table, node, serial)?;
+    Ok(p.into_inner().bytes().to_vec())
+}
+
 /// A blank flash gets what the command line says was configured before: the node-ID (as LSS
 /// stores it) and the serial number (factory data). A flash holding an image keeps it.
 fn factory<F: embedded_storage::nor_flash::NorFlash>(

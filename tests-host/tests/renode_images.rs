@@ -1,0 +1,79 @@
+//! The parameter pages the Renode bench loads into each board's flash (`renode/images`): the
+//! same factory programming the simulator gives a blank flash, so the Renode bench's nodes have
+//! the simulator bench's node-IDs. A test fails when a checked-in image differs from what the
+//! dictionaries and the storage format give now; `UPDATE_RENODE=1 cargo test -p tests-host
+//! --test renode_images` rewrites them.
+
+use std::path::PathBuf;
+
+use od_core::devices::{sgh10, sgh50, wv5800m};
+use od_core::storage::{identity, Loaded, ParamFlash};
+use tests_host::flash::RamFlash;
+use tests_host::sim::devices::{factory_pages, REGION};
+
+/// (file, dictionary, node-ID, serial number)
+fn images() -> Vec<(&'static str, &'static [od_core::od::Entry], u8, u32)> {
+    let wv = wv5800m::table_of(wv5800m::Variant { model: wv5800m::Model::Wv, turns: wv5800m::Turns::Multi12 });
+    vec![
+        ("sgh10-node10.bin", sgh10::TABLE, 10, 1_000_010),
+        ("sgh50-node20.bin", sgh50::TABLE, 20, 1_000_020),
+        ("sgh50-node21.bin", sgh50::TABLE_SECOND, 21, 1_000_021),
+        ("wv5800m-node30.bin", wv, 30, 1_000_030),
+    ]
+}
+
+fn dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../renode/images")
+}
+
+#[test]
+fn checked_in_images_are_current() {
+    let update = std::env::var_os("UPDATE_RENODE").is_some();
+    for (file, table, node, serial) in images() {
+        let pages = factory_pages(table, Some(node), Some(serial)).unwrap();
+        assert_eq!(pages.len(), 4096, "the four pages memory.x reserves");
+        let path = dir().join(file);
+        if update {
+            std::fs::write(&path, &pages).unwrap();
+        }
+        let stored = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(stored == pages, "{file} is stale: UPDATE_RENODE=1 cargo test -p tests-host --test renode_images");
+    }
+}
+
+#[test]
+fn images_hold_node_id_and_serial() {
+    for (file, table, node, serial) in images() {
+        let pages = std::fs::read(dir().join(file)).unwrap();
+        let mut p = ParamFlash::new(RamFlash::from_bytes(pages), REGION, identity(table));
+        let Loaded::Image(image) = p.load() else { panic!("{file}: no valid image") };
+        assert_eq!(image.get(0x5F0A, 1).map(|r| r.value), Some(node as u32), "{file}");
+        assert_eq!(image.get(0x1018, 4).map(|r| r.value), Some(serial), "{file}");
+    }
+}
+
+/// Every file the Renode bench names exists, and it loads the firmware images the workspace
+/// builds (bins of firmware/Cargo.toml).
+#[test]
+fn renode_bench_names_existing_files() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    let script = std::fs::read_to_string(root.join("renode/machines.resc")).unwrap();
+    let manifest = std::fs::read_to_string(root.join("firmware/Cargo.toml")).unwrap();
+    let mut elves = 0;
+    for word in script.split_whitespace().filter(|w| w.starts_with("$ORIGIN/")) {
+        let rel = &word["$ORIGIN/".len()..];
+        if let Some(bin) = rel.strip_prefix("../firmware/target/thumbv7m-none-eabi/release/") {
+            assert!(manifest.contains(&format!("name = \"{bin}\"")), "{bin} is not a firmware binary");
+            elves += 1;
+        } else {
+            assert!(root.join("renode").join(rel).is_file(), "renode/{rel} is missing");
+        }
+    }
+    assert_eq!(elves, 4, "four machines");
+    for (file, ..) in images() {
+        assert!(
+            script.contains(&format!("$ORIGIN/images/{file} 0x0801F000")),
+            "{file} is loaded at the parameter pages"
+        );
+    }
+}
