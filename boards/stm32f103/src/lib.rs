@@ -2,9 +2,10 @@
 //!
 //! [`mcu`] is what every board shares (clocks, bxCAN and its transceiver, parameter flash,
 //! watchdog, reset cause, variant straps); [`sensor`] and [`leds`] are the front-ends the
-//! encoders share; one module per product puts them together: [`sgh10`], [`sgh50`],
-//! [`wv5800m`], [`wv58mr`] and [`ap10t`]. `boards/README.md` has the pin map. Every decision
-//! that can be computed without the hardware is in `board-plan`, host-tested.
+//! encoders share, [`wire`] the draw-wire board; one module per product puts them together:
+//! [`sgh10`], [`sgh50`], [`wv5800m`], [`wv58mr`] and [`ap10t`]. `boards/README.md` has the pin
+//! map. Every decision that can be computed without the hardware is in `board-plan`,
+//! host-tested.
 //!
 //! The firmware drives a board's inputs and outputs through [`Io`]: sampled every
 //! [`Io::period_us`] (a sensor, the keys) and shown whenever the node may have changed (LEDs,
@@ -18,6 +19,7 @@ pub mod mcu;
 pub mod sensor;
 pub mod sgh10;
 pub mod sgh50;
+pub mod wire;
 pub mod wv5800m;
 pub mod wv58mr;
 
