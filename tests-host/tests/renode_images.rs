@@ -52,28 +52,35 @@ fn images_hold_node_id_and_serial() {
     }
 }
 
-/// Every file the Renode bench names exists, and it loads the firmware images the workspace
-/// builds (bins of firmware/Cargo.toml).
+/// Every file a Renode script names exists, the binaries are firmware binaries
+/// (firmware/Cargo.toml), and the one-bus bench loads each image at the parameter pages.
 #[test]
-fn renode_bench_names_existing_files() {
+fn renode_scripts_name_existing_files() {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    let script = std::fs::read_to_string(root.join("renode/machines.resc")).unwrap();
     let manifest = std::fs::read_to_string(root.join("firmware/Cargo.toml")).unwrap();
-    let mut elves = 0;
-    for word in script.split_whitespace().filter(|w| w.starts_with("$ORIGIN/")) {
-        let rel = &word["$ORIGIN/".len()..];
-        if let Some(bin) = rel.strip_prefix("../firmware/target/thumbv7m-none-eabi/release/") {
-            assert!(manifest.contains(&format!("name = \"{bin}\"")), "{bin} is not a firmware binary");
-            elves += 1;
-        } else {
-            assert!(root.join("renode").join(rel).is_file(), "renode/{rel} is missing");
+    let mut scripts = 0;
+    for entry in std::fs::read_dir(root.join("renode")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "resc") {
+            continue;
+        }
+        scripts += 1;
+        let script = std::fs::read_to_string(&path).unwrap();
+        for rel in script.split_whitespace().filter_map(|w| w.split_once("$ORIGIN/").map(|(_, rel)| rel)) {
+            if let Some(bin) = rel.strip_prefix("../firmware/target/thumbv7m-none-eabi/release/") {
+                assert!(
+                    manifest.contains(&format!("name = \"{bin}\"")),
+                    "{}: {bin} is no firmware binary",
+                    path.display()
+                );
+            } else {
+                assert!(root.join("renode").join(rel).is_file(), "{}: renode/{rel} is missing", path.display());
+            }
         }
     }
-    assert_eq!(elves, 4, "four machines");
+    assert!(scripts >= 5, "bench, bus and the three device scripts");
+    let bus = std::fs::read_to_string(root.join("renode/bus.resc")).unwrap();
     for (file, ..) in images() {
-        assert!(
-            script.contains(&format!("$ORIGIN/images/{file} 0x0801F000")),
-            "{file} is loaded at the parameter pages"
-        );
+        assert!(bus.contains(&format!("$ORIGIN/images/{file} 0x0801F000")), "{file} is loaded at the parameter pages");
     }
 }

@@ -1,0 +1,194 @@
+*** Settings ***
+Documentation       CANopen behaviour of the SGH10, SGH50 and WV5800M firmware on emulated STM32F103CB
+...                 boards (renode/README.md). Run from the repository root, after `cargo firmware`:
+...                 renode-test renode/tests/canopen.robot
+...
+...                 Frames on a hub are observed through the `can_trace` command of renode/canopen.py,
+...                 which logs each one as "CAN <hub> <id> [<length>] <data> from <sender>", and matched
+...                 with Wait For Log Entry; frames are sent with its `can_send` command. Expected
+...                 values come from the devices' dictionaries (eds/*.eds, generated from od-core) and
+...                 CiA 301: boot-up 700h+node [1] 00; expedited upload response 43h (4 data bytes);
+...                 download response 60h; heartbeat state 7Fh PRE-OPERATIONAL, 05h OPERATIONAL;
+...                 NMT start 01h; PDOs only in OPERATIONAL.
+...                 Renode's default Test Setup (Reset Emulation) runs before each test.
+
+*** Variables ***
+${FIRMWARE}                 ${CURDIR}/../../firmware/target/thumbv7m-none-eabi/release
+${FILES}                    ${CURDIR}/..
+${TIMEOUT}                  5
+
+# SDO upload request of 1000h sub 0 (device type)
+${READ_DEVICE_TYPE}         40 00 10 00 00 00 00 00
+# SDO expedited download of 2 bytes (command 2Bh) to 1017h sub 0: producer heartbeat 100 ms
+${HEARTBEAT_100_MS}         2B 17 10 00 64 00 00 00
+# NMT "start remote node" (01h) to all nodes (node-ID 0)
+${NMT_START_ALL}            01 00
+# 1000h default of the SGH10 and the SGH50 (eds/SGH10.eds, eds/SGH50.eds): 0x000A0196,
+# little-endian in the response
+${SGH_DEVICE_TYPE}          96 01 0A 00
+# 1000h default of the multiturn WV5800M (eds/WV5800M.eds): 0x00020196
+${WV_MULTITURN_TYPE}        96 01 02 00
+
+*** Keywords ***
+Load Bus Commands
+    Execute Command         include @${FILES}/canopen.py
+
+Create SGH10
+    Execute Command         $global.sgh10_bin=@${FIRMWARE}/sgh10
+    Execute Command         include @${FILES}/sgh10.resc
+    Execute Command         can_trace "canSgh10"
+
+Create Redundant SGH50
+    Execute Command         $global.sgh50_bin=@${FIRMWARE}/sgh50
+    Execute Command         include @${FILES}/sgh50.resc
+    Execute Command         can_trace "canSgh50"
+    # Two machines on one hub: execute them serially for a deterministic order, as Renode's
+    # own multi-machine CAN tests do (tests/peripherals/IMX8MP_Flexcan.robot).
+    Execute Command         emulation SetGlobalSerialExecution True
+
+Create WV5800M
+    Execute Command         $global.wv5800m_bin=@${FIRMWARE}/wv5800m
+    Execute Command         include @${FILES}/wv5800m.resc
+    Execute Command         can_trace "canWv5800m"
+
+Feed Sensor
+    [Arguments]             ${machine}
+    # A valid reading (turns 1, angle 4096, no error) for the first 20000 samples, queued
+    # before the emulation starts so that the firmware reads whole frames from the start.
+    Execute Command         sensor_feed "${machine}" 1 4096 20000
+
+Send Frame
+    [Arguments]             ${hub}    ${id}    ${data}=${EMPTY}
+    Execute Command         can_send "${hub}" ${id} "${data}"
+
+Wait For Frame
+    [Arguments]             ${hub}    ${frame}
+    # keep=True: frames of two nodes may come in either order; each pattern is unique in a test.
+    Wait For Log Entry      CAN ${hub} ${frame}    timeout=${TIMEOUT}    keep=True
+
+*** Test Cases ***
+SGH10 Should Send Its Boot-up Frame
+    Create Log Tester       ${TIMEOUT}
+    Load Bus Commands
+    Create SGH10
+    # Renode's CAN Tester keywords (src/Renode/RobotFrameworkEngine/CANKeywords.cs) see the
+    # frame on the hub; the trace line shows its data.
+    Create CAN Tester       canSgh10    ${TIMEOUT}
+    Wait For Frame With Id  ${0x701}
+    Wait For Frame          canSgh10    701 [1] 00
+
+SGH10 Should Answer An SDO Upload Of Its Device Type
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create SGH10
+    Wait For Frame          canSgh10    701 [1] 00
+    Send Frame              canSgh10    0x601    ${READ_DEVICE_TYPE}
+    Wait For Frame          canSgh10    581 [8] 43 00 10 00 ${SGH_DEVICE_TYPE}
+
+SGH10 Should Send TPDO2 On SYNC Only After NMT Start
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create SGH10
+    Feed Sensor             sgh10
+    Wait For Frame          canSgh10    701 [1] 00
+    Send Frame              canSgh10    0x601    ${HEARTBEAT_100_MS}
+    # Bytes 4..7 of a download response are reserved: only the command and the address are checked.
+    Wait For Frame          canSgh10    581 [8] 60 17 10 00
+    Wait For Frame          canSgh10    701 [1] 7F
+    # SYNC (COB-ID 1005h = 80h, no data) in PRE-OPERATIONAL: no PDO.
+    Send Frame              canSgh10    0x080
+    Should Not Be In Log    CAN canSgh10 281    timeout=0.5
+    Send Frame              canSgh10    0x000    ${NMT_START_ALL}
+    Wait For Frame          canSgh10    701 [1] 05
+    # TPDO2: COB-ID 280h + node-ID, transmission type 1 (every SYNC), mapping 6020h.01 (32 bits)
+    # + 6030h.01 (16 bits) = 6 data bytes. The position value itself is not checked.
+    Send Frame              canSgh10    0x080
+    Wait For Frame          canSgh10    281 [6]
+
+Redundant SGH50 Should Boot Both Channels And Answer On Nodes 1 And 2
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create Redundant SGH50
+    Wait For Frame          canSgh50    701 [1] 00
+    Wait For Frame          canSgh50    702 [1] 00
+    Send Frame              canSgh50    0x601    ${READ_DEVICE_TYPE}
+    Wait For Frame          canSgh50    581 [8] 43 00 10 00 ${SGH_DEVICE_TYPE}
+    Send Frame              canSgh50    0x602    ${READ_DEVICE_TYPE}
+    Wait For Frame          canSgh50    582 [8] 43 00 10 00 ${SGH_DEVICE_TYPE}
+
+Redundant SGH50 Should Send TPDO2 From Both Channels On One SYNC
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create Redundant SGH50
+    Feed Sensor             sgh50a
+    Feed Sensor             sgh50b
+    Wait For Frame          canSgh50    701 [1] 00
+    Wait For Frame          canSgh50    702 [1] 00
+    # NMT start and SYNC reach each node's receive FIFO in this order.
+    Send Frame              canSgh50    0x000    ${NMT_START_ALL}
+    Send Frame              canSgh50    0x080
+    Wait For Frame          canSgh50    281 [6]
+    Wait For Frame          canSgh50    282 [6]
+
+WV5800M Should Answer An SDO Upload Of Its Device Type
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create WV5800M
+    Wait For Frame          canWv5800m    701 [1] 00
+    Send Frame              canWv5800m    0x601    ${READ_DEVICE_TYPE}
+    Wait For Frame          canWv5800m    581 [8] 43 00 10 00 ${WV_MULTITURN_TYPE}
+
+WV5800M Should Flash Its Green LED Until NMT Start
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create WV5800M
+    ${green}=               Create LED Tester    sysbus.gpioPortB.ledGreen    machine=wv5800m
+    ${red}=                 Create LED Tester    sysbus.gpioPortB.ledRed      machine=wv5800m
+    Wait For Frame          canWv5800m    701 [1] 00
+    Send Frame              canWv5800m    0x601    ${HEARTBEAT_100_MS}
+    Wait For Frame          canWv5800m    581 [8] 60 17 10 00
+    # PRE-OPERATIONAL: green flashing, 200 ms on, 200 ms off (CiA 303-3; od-core/src/led.rs).
+    Assert Led Is Blinking  testDuration=2    onDuration=0.2    offDuration=0.2    tolerance=0.1    testerId=${green}
+    # No CAN error in the emulation (the STMCAN model's error counters stay 0): red off.
+    Assert And Hold Led State    false    timeoutAssert=0    timeoutHold=1    testerId=${red}
+    Send Frame              canWv5800m    0x000    ${NMT_START_ALL}
+    Wait For Frame          canWv5800m    701 [1] 05
+    # Give the LED task time to follow the state (at most one flash period), then OPERATIONAL:
+    # green on.
+    Execute Command         pause
+    Execute Command         emulation RunFor "0.5"
+    Assert And Hold Led State    true    timeoutAssert=0    timeoutHold=1    testerId=${green}
+
+Bench Should Boot Every Device
+    Create Log Tester       ${TIMEOUT}
+    Execute Command         $global.sgh10_bin=@${FIRMWARE}/sgh10
+    Execute Command         $global.sgh50_bin=@${FIRMWARE}/sgh50
+    Execute Command         $global.wv5800m_bin=@${FIRMWARE}/wv5800m
+    # bench.resc loads canopen.py, traces its three hubs and starts the emulation.
+    Execute Command         include @${FILES}/bench.resc
+    Wait For Frame          canSgh10    701 [1] 00
+    Wait For Frame          canSgh50    701 [1] 00
+    Wait For Frame          canSgh50    702 [1] 00
+    Wait For Frame          canWv5800m    701 [1] 00
+
+One Bus Should Carry The Simulator's Bench With Stored Node-IDs
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Execute Command         $global.sgh10_bin=@${FIRMWARE}/sgh10
+    Execute Command         $global.sgh50_bin=@${FIRMWARE}/sgh50
+    Execute Command         $global.wv5800m_bin=@${FIRMWARE}/wv5800m
+    Execute Command         include @${FILES}/bus.resc
+    Execute Command         can_trace "can0"
+    # The node-IDs come from the parameter pages (renode/images), the SGH50's channel from its
+    # straps: four nodes, four boot-ups on one bus.
+    Wait For Frame          can0    70A [1] 00
+    Wait For Frame          can0    714 [1] 00
+    Wait For Frame          can0    715 [1] 00
+    Wait For Frame          can0    71E [1] 00
+    Send Frame              can0    0x60A    ${READ_DEVICE_TYPE}
+    Wait For Frame          can0    58A [8] 43 00 10 00 ${SGH_DEVICE_TYPE}
+    Send Frame              can0    0x61E    ${READ_DEVICE_TYPE}
+    Wait For Frame          can0    59E [8] 43 00 10 00 ${WV_MULTITURN_TYPE}
+    # The serial numbers are the programmed ones (1018h sub 4 = 1000010 = 000F424Ah).
+    Send Frame              can0    0x60A    40 18 10 04 00 00 00 00
+    Wait For Frame          can0    58A [8] 43 18 10 04 4A 42 0F 00
