@@ -18,7 +18,7 @@ pub const BANKS: usize = 14;
 /// Most receive identifiers a node lists ([`od_core::Node::rx_ids`]).
 pub const MAX_IDS: usize = MAX_RX_IDS;
 
-/// The 16-bit list-mode entry of `r` (RM0008 figure 230: STID[10:0] RTR IDE EXID[17:15]);
+/// The 16-bit list-mode entry of `r` (RM0008 figure 230: `STID[10:0] RTR IDE EXID[17:15]`);
 /// `None` for a 29-bit identifier.
 pub const fn entry16(r: RxId) -> Option<u16> {
     match r.id {

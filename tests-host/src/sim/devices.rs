@@ -1,6 +1,6 @@
 //! The device registry: how each `--device` kind becomes nodes on a segment, each with its
 //! parameter flash and, for encoders, a simulated sensor. A kind not built yet answers
-//! [`Registry::build`] with a "not yet available" error; adding it is one arm of [`plan`].
+//! [`Registry::build`] with a "not yet available" error; adding it is one arm of `plan`.
 
 use std::f64::consts::TAU;
 use std::path::Path;
