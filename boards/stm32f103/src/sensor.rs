@@ -18,7 +18,15 @@ use crate::Io;
 /// SPI clock: APB2 72 MHz / 64. A 5-byte frame takes 36 µs, far inside the 1 ms sample period.
 pub const SPI_HZ: u32 = 1_125_000;
 
-/// The angle sensor.
+/// A position sensor as the encoders read it: one absolute reading (turns and angle) per call,
+/// or why there is none. The boards' SPI sensor is [`AngleSensor`]; another front-end (a
+/// different chip, a test double) implements this and nothing else changes.
+pub trait PositionSensor {
+    /// Reads the sensor once.
+    fn read(&mut self) -> Result<Reading, SensorFault>;
+}
+
+/// The angle sensor on SPI1.
 pub struct AngleSensor {
     spi: Spi<'static, Blocking, spi::mode::Master>,
     nss: Output<'static>,
@@ -43,9 +51,11 @@ impl AngleSensor {
             nss: Output::new(nss, Level::High, Speed::Medium),
         }
     }
+}
 
+impl PositionSensor for AngleSensor {
     /// Reads one frame. A bus error of the SPI counts as no response.
-    pub fn read(&mut self) -> Result<Reading, SensorFault> {
+    fn read(&mut self) -> Result<Reading, SensorFault> {
         let mut frame = [0u8; FRAME_LEN];
         self.nss.set_low();
         let result = self.spi.blocking_transfer_in_place(&mut frame);
@@ -57,19 +67,19 @@ impl AngleSensor {
 
 /// The wire encoders' sensor input: the drum's turns and angle as the pulled-out wire length in
 /// micrometres (the raw value of their 600Ch), sampled every device sample period.
-pub struct WireSensor {
-    sensor: AngleSensor,
+pub struct WireSensor<S = AngleSensor> {
+    sensor: S,
     um_per_turn: u32,
 }
 
-impl WireSensor {
+impl<S: PositionSensor> WireSensor<S> {
     /// `sensor` on a drum that pays out `um_per_turn` micrometres of wire per turn.
-    pub fn new(sensor: AngleSensor, um_per_turn: u32) -> WireSensor {
+    pub fn new(sensor: S, um_per_turn: u32) -> WireSensor<S> {
         WireSensor { sensor, um_per_turn }
     }
 }
 
-impl<E: Encoder> Io<E> for WireSensor {
+impl<E: Encoder, S: PositionSensor> Io<E> for WireSensor<S> {
     fn period_us(&self, device: &E) -> u32 {
         device.sample_period_us()
     }

@@ -10,24 +10,24 @@ use od_core::Instant;
 
 use crate::leds::StatusLeds;
 use crate::mcu::{self, Mcu};
-use crate::sensor::AngleSensor;
+use crate::sensor::{AngleSensor, PositionSensor};
 use crate::Io;
 
 /// The rotary encoder's inputs and outputs: the shaft sensor and the LEDs.
-pub struct RotaryIo {
-    sensor: AngleSensor,
+pub struct RotaryIo<S = AngleSensor> {
+    sensor: S,
     leds: StatusLeds,
     turn_bits: u32,
 }
 
-impl RotaryIo {
+impl<S: PositionSensor> RotaryIo<S> {
     /// The sensor counting `revolutions` turns (a power of two, 1 = singleturn) and the LEDs.
-    pub fn new(sensor: AngleSensor, leds: StatusLeds, revolutions: u32) -> RotaryIo {
+    pub fn new(sensor: S, leds: StatusLeds, revolutions: u32) -> RotaryIo<S> {
         RotaryIo { sensor, leds, turn_bits: revolutions.trailing_zeros() }
     }
 }
 
-impl Io<Wv5800m> for RotaryIo {
+impl<S: PositionSensor> Io<Wv5800m> for RotaryIo<S> {
     fn period_us(&self, device: &Wv5800m) -> u32 {
         device.sample_period_us()
     }

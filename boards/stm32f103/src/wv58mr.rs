@@ -13,7 +13,7 @@ use od_core::encoder::SensorFault;
 
 use crate::leds::StatusLeds;
 use crate::mcu::{self, Mcu};
-use crate::sensor::AngleSensor;
+use crate::sensor::{AngleSensor, PositionSensor};
 
 /// The WV58MR board (one channel).
 pub struct Board {
