@@ -214,6 +214,25 @@ pub enum CoreHook {
     PendingBitrate,
 }
 
+/// An entry's limits as the 32-bit patterns of its data type (every value fits a 32-bit slot,
+/// D-ARCH-2): 9 bytes where an `Option<(i64, i64)>` takes 24, in every entry of every table in
+/// flash.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+struct Limits {
+    lo: u32,
+    hi: u32,
+    set: bool,
+}
+
+impl Limits {
+    const NONE: Limits = Limits { lo: 0, hi: 0, set: false };
+}
+
+// Every table lives in the firmware's flash, about a hundred entries per device: an entry that
+// grows past 56 bytes on the 32-bit target should be a decision, not an accident.
+#[cfg(target_pointer_width = "32")]
+const _: () = assert!(core::mem::size_of::<Entry>() <= 56);
+
 /// One (index, sub-index) of a device's dictionary, as declared.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Entry {
@@ -233,8 +252,8 @@ pub struct Entry {
     pub pdo: bool,
     /// Factory default.
     pub default: Default,
-    /// Inclusive value limits, in the type's numeric range.
-    pub limits: Option<(i64, i64)>,
+    /// Inclusive value limits ([`Entry::limits`]).
+    limits: Limits,
     /// Storage group.
     pub group: Group,
     /// Write side effect.
@@ -260,7 +279,7 @@ impl Entry {
             access,
             pdo: false,
             default,
-            limits: None,
+            limits: Limits::NONE,
             group: Group::None,
             hook: Hook::None,
         }
@@ -333,10 +352,22 @@ impl Entry {
         self
     }
 
-    /// Sets inclusive limits.
+    /// Sets inclusive limits, in the type's numeric range (a limit outside it fails the
+    /// declaration, at compile time for a `static` table).
     pub const fn range(mut self, lo: i64, hi: i64) -> Entry {
-        self.limits = Some((lo, hi));
+        let limits = Limits { lo: lo as u32, hi: hi as u32, set: true };
+        assert!(self.dtype.to_i64(limits.lo) == lo && self.dtype.to_i64(limits.hi) == hi, "limit outside the type");
+        self.limits = limits;
         self
+    }
+
+    /// The inclusive value limits, in the type's numeric range, if the entry has any.
+    pub const fn limits(&self) -> Option<(i64, i64)> {
+        if self.limits.set {
+            Some((self.dtype.to_i64(self.limits.lo), self.dtype.to_i64(self.limits.hi)))
+        } else {
+            None
+        }
     }
 
     /// Sets the storage group.
@@ -529,7 +560,7 @@ impl Od {
         let mut raw = [0u8; 4];
         raw[..size].copy_from_slice(data);
         let value = u32::from_le_bytes(raw);
-        if let Some((lo, hi)) = e.limits {
+        if let Some((lo, hi)) = e.limits() {
             let v = e.dtype.to_i64(value);
             if v < lo {
                 return Err(Abort::INVALID_VALUE);

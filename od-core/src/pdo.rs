@@ -826,7 +826,7 @@ fn apply(od: &mut Od, map: &Mapping, data: &[u8; 8]) -> bool {
                 v &= (1u32 << (size * 8)) - 1;
             }
         }
-        if let Some((lo, hi)) = e.limits {
+        if let Some((lo, hi)) = e.limits() {
             let x = e.dtype.to_i64(v);
             if x < lo || x > hi {
                 return false;

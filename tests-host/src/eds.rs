@@ -170,7 +170,7 @@ fn variable(out: &mut String, e: &Entry) {
     let _ = writeln!(out, "AccessType={}", access(e.access));
     let _ = writeln!(out, "DefaultValue={}", default_value(e));
     let _ = writeln!(out, "PDOMapping={}", e.pdo as u8);
-    if let Some((lo, hi)) = e.limits {
+    if let Some((lo, hi)) = e.limits() {
         let _ = writeln!(out, "LowLimit={}", limit(lo));
         let _ = writeln!(out, "HighLimit={}", limit(hi));
     }
@@ -317,7 +317,7 @@ pub fn table_json(table: &[Entry]) -> String {
             Default::PlusNodeId(b) => (b.to_string(), true),
             Default::Str(s) => (json_str(s), false),
         };
-        let (lo, hi) = match e.limits {
+        let (lo, hi) = match e.limits() {
             Some((lo, hi)) => (lo.to_string(), hi.to_string()),
             None => ("null".into(), "null".into()),
         };

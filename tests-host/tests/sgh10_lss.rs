@@ -671,7 +671,7 @@ fn a_device_without_lss_ignores_7e5() {
 fn declared_bit_rate_codes_cover_the_pending_entry_limits() {
     // Every 5F0Ah.02 value an SDO client may write names a rate the node can switch to.
     let e = sgh10::TABLE.iter().find(|e| (e.index, e.sub) == (0x5F0A, 2)).unwrap();
-    let (lo, hi) = e.limits.unwrap();
+    let (lo, hi) = e.limits().unwrap();
     let codes = TableOnly(sgh10::TABLE).bitrate_codes();
     for v in lo..=hi {
         assert!(codes.iter().any(|(c, _)| *c as i64 == v), "code {v}");

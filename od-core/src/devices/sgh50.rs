@@ -316,7 +316,7 @@ mod tests {
         assert!(od.pos(0x6003, 0).is_none() && od.pos(0x6004, 0).is_none());
         assert!(od.pos(0x1800, 4).is_none() && od.pos(0x1801, 6).is_none());
         let e = od.entry(od.pos(0x6010, 1).unwrap());
-        assert_eq!(e.limits, Some((-73839, 73839)));
+        assert_eq!(e.limits(), Some((-73839, 73839)));
     }
 
     #[test]

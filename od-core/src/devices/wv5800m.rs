@@ -678,9 +678,9 @@ mod tests {
             let e = od.entry(od.pos(0x1008, 0).unwrap());
             assert_eq!(e.default, crate::od::Default::Str(v.model.name()));
             let e = od.entry(od.pos(0x2001, 0).unwrap());
-            assert_eq!(e.limits, Some((-(16384 * n as i64), 16384 * n as i64 - 1)));
+            assert_eq!(e.limits(), Some((-(16384 * n as i64), 16384 * n as i64 - 1)));
             let e = od.entry(od.pos(0x6003, 0).unwrap());
-            assert_eq!(e.limits, Some((0, 65535 * n as i64 - 1)));
+            assert_eq!(e.limits(), Some((0, 65535 * n as i64 - 1)));
         }
         // The WV and WH tables differ only in the name.
         for (a, b) in WV_4096.iter().zip(WH_4096.iter()) {

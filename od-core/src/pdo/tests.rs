@@ -12,10 +12,7 @@ const fn core(h: CoreHook) -> Hook {
 
 /// A writable mapping record head: `highest` objects, `count` of them mapped by default.
 const fn mapping(index: u16, name: &'static str, highest: u8, count: u32) -> Entry {
-    Entry {
-        default: crate::od::Default::Value(count),
-        ..Entry::record(index, name, highest, Rw).hook(core(PdoMapping))
-    }
+    Entry::record(index, name, highest, Rw).with_default(count).hook(core(PdoMapping))
 }
 
 static T: &[Entry] = &[

@@ -101,7 +101,7 @@ impl Record {
         if e.hook == Hook::Core(CoreHook::PendingNodeId) && self.value == crate::lss::UNCONFIGURED as u32 {
             return true;
         }
-        match e.limits {
+        match e.limits() {
             Some((lo, hi)) => (lo..=hi).contains(&e.dtype.to_i64(self.value)),
             None => true,
         }
