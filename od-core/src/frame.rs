@@ -66,11 +66,6 @@ impl RxId {
     pub const fn remote(id: CanId) -> RxId {
         RxId { id, rtr: true }
     }
-
-    /// Is `frame` of this kind?
-    pub fn matches(&self, frame: &Frame) -> bool {
-        frame.id == self.id && frame.rtr == self.rtr
-    }
 }
 
 /// One CAN 2.0 frame.
