@@ -12,21 +12,18 @@
 //! measuring range; the SGH50 manual lists no speed EMCY.
 
 use crate::abort::Abort;
+use crate::devices::comm::{self, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
 use crate::encoder::linear::{Linear, LinearSpec};
 use crate::encoder::{Encoder, SensorFault};
 use crate::node::{BusEvent, Core, Device, ResetKind};
-use crate::od::{Access::*, CoreHook, DataType::*, Entry, Group, Hook};
+use crate::od::{Access::*, DataType::*, Entry, Group, Hook};
 use crate::time::Instant;
 
 /// Device-specific write hooks of the SGH50 (`Hook::Device(n)`): the linear encoders' ones.
 pub use crate::encoder::linear::hooks;
 
-const COMM: Group = Group::Comm;
 const APP: Group = Group::App;
 const MANUF: Group = Group::Manuf;
-const fn core(h: CoreHook) -> Hook {
-    Hook::Core(h)
-}
 const fn dev(h: u8) -> Hook {
     Hook::Device(h)
 }
@@ -41,153 +38,95 @@ pub const DEFAULT_BITRATE_CODE: u8 = 5;
 /// Entries in the SGH50 dictionary.
 pub const ENTRIES: usize = 97;
 
+/// What the SGH50's communication profile (1000h-1FFFh) declares; [`comm`] writes the rows.
+const PROFILE: Profile = Profile {
+    device_type: 0x000A_0196,
+    status_register: true,
+    device_name: Some("SGH50"),
+    hardware_version: Some("V100"),
+    software_version: "V100",
+    identity: Identity::siko(Serial::Factory(0)),
+    heads: Const,
+    canopen: Some(CanOpen {
+        rpdos: &[],
+        tpdos: &[
+            Pdo::new(0xFE, &TPDO_MAPPING).transmission_limits(0xFD, 0xFF).event_timer(dev(hooks::CYCLE_TIMER)),
+            Pdo::new(0x01, &TPDO_MAPPING),
+        ],
+    }),
+};
+/// TPDO1 and TPDO2 both map the position (6020h.01) and the speed (6030h.01).
+const TPDO_MAPPING: [u32; 2] = [0x6020_0120, 0x6030_0110];
+
 /// The SGH50 dictionary with `node_id` as the factory default of 5F0Ah.01.
 const fn table(node_id: u8) -> [Entry; ENTRIES] {
-    [
-        Entry::var(0x1000, "Device type", Unsigned32, Ro, 0x000A_0196),
-        Entry::var(0x1001, "Error register", Unsigned8, Ro, 0),
-        Entry::var(0x1002, "Manufacturer status register", Unsigned32, Ro, 0),
-        Entry::array(0x1003, "Pre-defined error field", 8, Rw)
-            .named("Number of errors")
-            .with_default(0)
-            .group(COMM)
-            .hook(core(CoreHook::ErrorHistory)),
-        Entry::member(0x1003, 1, "Standard error field 1", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 2, "Standard error field 2", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 3, "Standard error field 3", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 4, "Standard error field 4", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 5, "Standard error field 5", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 6, "Standard error field 6", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 7, "Standard error field 7", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 8, "Standard error field 8", Unsigned32, Ro, 0).group(COMM),
-        Entry::var(0x1005, "COB-ID SYNC message", Unsigned32, Rw, 0x80).group(COMM).hook(core(CoreHook::SyncCobId)),
-        Entry::string(0x1008, "Manufacturer device name", "SGH50"),
-        Entry::string(0x1009, "Manufacturer hardware version", "V100"),
-        Entry::string(0x100A, "Manufacturer software version", "V100"),
-        Entry::var(0x100C, "Guard time", Unsigned16, Rw, 0).group(COMM).hook(core(CoreHook::Guarding)),
-        Entry::var(0x100D, "Life time factor", Unsigned8, Rw, 0).group(COMM).hook(core(CoreHook::Guarding)),
-        Entry::array(0x1010, "Store parameters", 4, Const),
-        Entry::member(0x1010, 1, "Save all parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
-        Entry::member(0x1010, 2, "Save communication parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
-        Entry::member(0x1010, 3, "Save application parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
-        Entry::member(0x1010, 4, "Save manufacturer parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
-        Entry::array(0x1011, "Restore default parameters", 4, Const),
-        Entry::member(0x1011, 1, "Restore all default parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Restore)),
-        Entry::member(0x1011, 2, "Restore communication default parameters", Unsigned32, Rw, 1)
-            .hook(core(CoreHook::Restore)),
-        Entry::member(0x1011, 3, "Restore application default parameters", Unsigned32, Rw, 1)
-            .hook(core(CoreHook::Restore)),
-        Entry::member(0x1011, 4, "Restore manufacturer default parameters", Unsigned32, Rw, 1)
-            .hook(core(CoreHook::Restore)),
-        Entry::var(0x1014, "COB-ID EMCY", Unsigned32, Rw, 0)
-            .plus_node_id(0x80)
-            .group(COMM)
-            .hook(core(CoreHook::EmcyCobId)),
-        Entry::var(0x1017, "Producer heartbeat time", Unsigned16, Rw, 0)
-            .group(COMM)
-            .hook(core(CoreHook::HeartbeatTime)),
-        Entry::record(0x1018, "Identity object", 4, Const),
-        Entry::member(0x1018, 1, "Vendor-ID", Unsigned32, Ro, 0x0000_0195),
-        Entry::member(0x1018, 2, "Product code", Unsigned32, Ro, 0xFFFF_FFFF),
-        Entry::member(0x1018, 3, "Revision number", Unsigned32, Ro, 0xFFFF_FFFF),
-        Entry::member(0x1018, 4, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
-        Entry::record(0x1200, "SDO server parameter", 2, Const),
-        Entry::member(0x1200, 1, "COB-ID client to server (rx)", Unsigned32, Ro, 0).plus_node_id(0x600),
-        Entry::member(0x1200, 2, "COB-ID server to client (tx)", Unsigned32, Ro, 0).plus_node_id(0x580),
-        Entry::record(0x1800, "TPDO1 communication parameter", 5, Const),
-        Entry::member(0x1800, 1, "COB-ID used by TPDO1", Unsigned32, Rw, 0)
-            .plus_node_id(0x180)
-            .group(COMM)
-            .hook(core(CoreHook::PdoCobId)),
-        Entry::member(0x1800, 2, "Transmission type", Unsigned8, Rw, 0xFE)
-            .range(0xFD, 0xFF)
-            .group(COMM)
-            .hook(core(CoreHook::PdoTransmissionType)),
-        Entry::member(0x1800, 3, "Inhibit time", Unsigned16, Ro, 0),
-        Entry::member(0x1800, 5, "Event timer", Unsigned16, Rw, 0).group(COMM).hook(dev(hooks::CYCLE_TIMER)),
-        Entry::record(0x1801, "TPDO2 communication parameter", 5, Const),
-        Entry::member(0x1801, 1, "COB-ID used by TPDO2", Unsigned32, Rw, 0)
-            .plus_node_id(0x280)
-            .group(COMM)
-            .hook(core(CoreHook::PdoCobId)),
-        Entry::member(0x1801, 2, "Transmission type", Unsigned8, Rw, 0x01)
-            .group(COMM)
-            .hook(core(CoreHook::PdoTransmissionType)),
-        Entry::member(0x1801, 3, "Inhibit time", Unsigned16, Ro, 0),
-        Entry::member(0x1801, 5, "Event timer", Unsigned16, Ro, 0),
-        Entry::record(0x1A00, "TPDO1 mapping parameter", 2, Const).named("Number of mapped objects"),
-        Entry::member(0x1A00, 1, "Mapped object 1", Unsigned32, Ro, 0x6020_0120),
-        Entry::member(0x1A00, 2, "Mapped object 2", Unsigned32, Ro, 0x6030_0110),
-        Entry::record(0x1A01, "TPDO2 mapping parameter", 2, Const).named("Number of mapped objects"),
-        Entry::member(0x1A01, 1, "Mapped object 1", Unsigned32, Ro, 0x6020_0120),
-        Entry::member(0x1A01, 2, "Mapped object 2", Unsigned32, Ro, 0x6030_0110),
-        Entry::var(0x5000, "Diagnose CAN bus error", Unsigned32, Ro, 0),
-        Entry::var(0x5F09, "Bus terminal", Unsigned8, Rw, 0).range(0, 1).group(MANUF),
-        Entry::record(0x5F0A, "Node-ID and baud rate", 2, Const),
-        Entry::member(0x5F0A, 1, "Node-ID", Unsigned8, Rw, node_id as u32)
-            .range(1, 127)
-            .group(MANUF)
-            .hook(core(CoreHook::PendingNodeId)),
-        Entry::member(0x5F0A, 2, "Baud rate", Unsigned8, Rw, DEFAULT_BITRATE_CODE as u32)
-            .range(1, 7)
-            .group(MANUF)
-            .hook(core(CoreHook::PendingBitrate)),
-        Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, 0x0004)
-            .group(APP)
-            .hook(dev(hooks::OPERATING_PARAMETERS)),
-        Entry::var(0x6002, "Total number of measuring steps", Unsigned32, Rw, 73840).group(APP),
-        Entry::record(0x6005, "Linear encoder measuring step settings", 2, Ro),
-        Entry::member(0x6005, 1, "Position step setting", Unsigned32, Rw, 100_000).range(100_000, 100_000).group(APP),
-        Entry::member(0x6005, 2, "Speed step setting", Unsigned32, Rw, 100).range(100, 100).group(APP),
-        Entry::array(0x6010, "Preset value for multi-sensor devices", 1, Ro),
-        Entry::member(0x6010, 1, "Calibration value", Integer32, Rw, 0)
-            .range(-73839, 73839)
-            .pdo()
-            .hook(dev(hooks::CALIBRATE)),
-        Entry::array(0x6020, "Position value for multi-sensor devices", 1, Ro),
-        Entry::member(0x6020, 1, "Position value", Integer32, Ro, 0).pdo(),
-        Entry::array(0x6030, "Speed value", 1, Ro),
-        Entry::member(0x6030, 1, "Speed value", Integer16, Ro, 0).pdo(),
-        Entry::var(0x6200, "Cyclic timer", Unsigned16, Rw, 0).group(APP).hook(dev(hooks::CYCLE_TIMER)),
-        Entry::array(0x6400, "Area state register", 2, Ro),
-        Entry::member(0x6400, 1, "Work area state channel 1", Unsigned8, Ro, 0),
-        Entry::member(0x6400, 2, "Work area state channel 2", Unsigned8, Ro, 0),
-        Entry::array(0x6401, "Work area low limit", 2, Ro),
-        Entry::member(0x6401, 1, "Work area low limit channel 1", Integer32, Rw, -147678i32 as u32)
-            .range(-147678, 221517)
-            .group(APP)
-            .hook(dev(hooks::WORK_AREA)),
-        Entry::member(0x6401, 2, "Work area low limit channel 2", Integer32, Rw, -147678i32 as u32)
-            .range(-147678, 221517)
-            .group(APP)
-            .hook(dev(hooks::WORK_AREA)),
-        Entry::array(0x6402, "Work area high limit", 2, Ro),
-        Entry::member(0x6402, 1, "Work area high limit channel 1", Integer32, Rw, 221517)
-            .range(-147678, 221517)
-            .group(APP)
-            .hook(dev(hooks::WORK_AREA)),
-        Entry::member(0x6402, 2, "Work area high limit channel 2", Integer32, Rw, 221517)
-            .range(-147678, 221517)
-            .group(APP)
-            .hook(dev(hooks::WORK_AREA)),
-        Entry::var(0x6500, "Operating status", Unsigned16, Ro, 0x0004),
-        Entry::var(0x6501, "Single-turn resolution", Unsigned32, Ro, 100_000),
-        Entry::var(0x6502, "Number of distinguishable revolutions", Unsigned16, Ro, 1),
-        Entry::var(0x6503, "Alarms", Unsigned16, Ro, 0),
-        Entry::var(0x6504, "Supported alarms", Unsigned16, Ro, 0x3001),
-        Entry::var(0x6505, "Warnings", Unsigned16, Ro, 0),
-        Entry::var(0x6506, "Supported warnings", Unsigned16, Ro, 0),
-        Entry::var(0x6507, "Profile and software version", Unsigned32, Ro, 0x0100_0302),
-        Entry::var(0x6508, "Operating time", Unsigned32, Ro, 0xFFFF_FFFF),
-        Entry::var(0x6509, "Offset value", Integer32, Ro, 0).group(APP),
-        Entry::array(0x650A, "Module identification", 3, Ro),
-        Entry::member(0x650A, 1, "Manufacturer offset value", Integer32, Ro, 0),
-        Entry::member(0x650A, 2, "Manufacturer minimum position value", Integer32, Ro, -147678i32 as u32),
-        Entry::member(0x650A, 3, "Manufacturer maximum position value", Integer32, Ro, 221517),
-        Entry::var(0x650B, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
-        Entry::array(0x650C, "Offset values for multi-sensor devices", 1, Ro),
-        Entry::member(0x650C, 1, "Offset value channel 1", Integer32, Ro, 0).group(APP),
-    ]
+    comm::join(&[
+        comm::rows(&PROFILE).as_slice(),
+        &[
+            Entry::var(0x5000, "Diagnose CAN bus error", Unsigned32, Ro, 0),
+            Entry::var(0x5F09, "Bus terminal", Unsigned8, Rw, 0).range(0, 1).group(MANUF),
+        ],
+        comm::node_id_and_bitrate(&NodeIdAndBitrate::new(node_id, (1, 127), DEFAULT_BITRATE_CODE, (1, 7))).as_slice(),
+        &[
+            Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, 0x0004)
+                .group(APP)
+                .hook(dev(hooks::OPERATING_PARAMETERS)),
+            Entry::var(0x6002, "Total number of measuring steps", Unsigned32, Rw, 73840).group(APP),
+            Entry::record(0x6005, "Linear encoder measuring step settings", 2, Ro),
+            Entry::member(0x6005, 1, "Position step setting", Unsigned32, Rw, 100_000)
+                .range(100_000, 100_000)
+                .group(APP),
+            Entry::member(0x6005, 2, "Speed step setting", Unsigned32, Rw, 100).range(100, 100).group(APP),
+            Entry::array(0x6010, "Preset value for multi-sensor devices", 1, Ro),
+            Entry::member(0x6010, 1, "Calibration value", Integer32, Rw, 0)
+                .range(-73839, 73839)
+                .pdo()
+                .hook(dev(hooks::CALIBRATE)),
+            Entry::array(0x6020, "Position value for multi-sensor devices", 1, Ro),
+            Entry::member(0x6020, 1, "Position value", Integer32, Ro, 0).pdo(),
+            Entry::array(0x6030, "Speed value", 1, Ro),
+            Entry::member(0x6030, 1, "Speed value", Integer16, Ro, 0).pdo(),
+            Entry::var(0x6200, "Cyclic timer", Unsigned16, Rw, 0).group(APP).hook(dev(hooks::CYCLE_TIMER)),
+            Entry::array(0x6400, "Area state register", 2, Ro),
+            Entry::member(0x6400, 1, "Work area state channel 1", Unsigned8, Ro, 0),
+            Entry::member(0x6400, 2, "Work area state channel 2", Unsigned8, Ro, 0),
+            Entry::array(0x6401, "Work area low limit", 2, Ro),
+            Entry::member(0x6401, 1, "Work area low limit channel 1", Integer32, Rw, -147678i32 as u32)
+                .range(-147678, 221517)
+                .group(APP)
+                .hook(dev(hooks::WORK_AREA)),
+            Entry::member(0x6401, 2, "Work area low limit channel 2", Integer32, Rw, -147678i32 as u32)
+                .range(-147678, 221517)
+                .group(APP)
+                .hook(dev(hooks::WORK_AREA)),
+            Entry::array(0x6402, "Work area high limit", 2, Ro),
+            Entry::member(0x6402, 1, "Work area high limit channel 1", Integer32, Rw, 221517)
+                .range(-147678, 221517)
+                .group(APP)
+                .hook(dev(hooks::WORK_AREA)),
+            Entry::member(0x6402, 2, "Work area high limit channel 2", Integer32, Rw, 221517)
+                .range(-147678, 221517)
+                .group(APP)
+                .hook(dev(hooks::WORK_AREA)),
+            Entry::var(0x6500, "Operating status", Unsigned16, Ro, 0x0004),
+            Entry::var(0x6501, "Single-turn resolution", Unsigned32, Ro, 100_000),
+            Entry::var(0x6502, "Number of distinguishable revolutions", Unsigned16, Ro, 1),
+            Entry::var(0x6503, "Alarms", Unsigned16, Ro, 0),
+            Entry::var(0x6504, "Supported alarms", Unsigned16, Ro, 0x3001),
+            Entry::var(0x6505, "Warnings", Unsigned16, Ro, 0),
+            Entry::var(0x6506, "Supported warnings", Unsigned16, Ro, 0),
+            Entry::var(0x6507, "Profile and software version", Unsigned32, Ro, 0x0100_0302),
+            Entry::var(0x6508, "Operating time", Unsigned32, Ro, 0xFFFF_FFFF),
+            Entry::var(0x6509, "Offset value", Integer32, Ro, 0).group(APP),
+            Entry::array(0x650A, "Module identification", 3, Ro),
+            Entry::member(0x650A, 1, "Manufacturer offset value", Integer32, Ro, 0),
+            Entry::member(0x650A, 2, "Manufacturer minimum position value", Integer32, Ro, -147678i32 as u32),
+            Entry::member(0x650A, 3, "Manufacturer maximum position value", Integer32, Ro, 221517),
+            Entry::var(0x650B, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
+            Entry::array(0x650C, "Offset values for multi-sensor devices", 1, Ro),
+            Entry::member(0x650C, 1, "Offset value channel 1", Integer32, Ro, 0).group(APP),
+        ],
+    ])
 }
 
 static TABLE_1: [Entry; ENTRIES] = table(DEFAULT_NODE_ID);
