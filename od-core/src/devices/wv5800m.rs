@@ -13,6 +13,7 @@
 //! `docs/decisions.md`, "WV5800M".
 
 use crate::abort::Abort;
+use crate::devices::comm::{self, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
 use crate::encoder::linear::{CanDiagnosis, EMCY_AREA_1, EMCY_AREA_2, EMCY_BUS_OFF, EMCY_PASSIVE, EMCY_POSITION};
 use crate::encoder::rotary::{
     self, limit_speed, over_speed, raw_delta, speed_value, work_area_state, Scaling, DIRECTION_BIT, MAX_APU,
@@ -49,12 +50,8 @@ pub mod hooks {
     pub const CYCLE_TIMER: u8 = 8;
 }
 
-const COMM: Group = Group::Comm;
 const APP: Group = Group::App;
 const MANUF: Group = Group::Manuf;
-const fn core(h: CoreHook) -> Hook {
-    Hook::Core(h)
-}
 const fn dev(h: u8) -> Hook {
     Hook::Device(h)
 }
@@ -129,167 +126,115 @@ pub struct Variant {
     pub turns: Turns,
 }
 
+/// The TPDOs: TPDO1 (asynchronous, its event timer the 6200h cycle timer) and TPDO2
+/// (synchronous), both mapping the position (6004h) and the speed (6030h.01).
+const TPDOS: [Pdo; 2] =
+    [Pdo::new(0xFE, &TPDO_MAPPING).event_timer(dev(hooks::CYCLE_TIMER)), Pdo::new(0x01, &TPDO_MAPPING)];
+const TPDO_MAPPING: [u32; 2] = [0x6004_0020, 0x6030_0110];
+
+/// What the communication profile (1000h-1FFFh) of a `model` with `turns` declares; [`comm`]
+/// writes the rows.
+const fn profile(model: Model, turns: Turns) -> Profile {
+    Profile {
+        device_type: turns.device_type(),
+        status_register: true,
+        device_name: Some(model.name()),
+        hardware_version: Some("V001"),
+        software_version: "V001",
+        identity: Identity::siko(Serial::Factory(1)),
+        heads: Const,
+        canopen: Some(CanOpen { rpdos: &[], tpdos: &TPDOS }),
+    }
+}
+
+/// 5F0Ah.
+const NODE: NodeIdAndBitrate = NodeIdAndBitrate::new(DEFAULT_NODE_ID, (1, 127), DEFAULT_BITRATE_CODE, (1, 7));
+
 /// The dictionary of a `model` with `turns`.
 const fn table(model: Model, turns: Turns) -> [Entry; ENTRIES] {
     let n = turns.revolutions() as i64;
     // Raw range = default total range (APU 16384); the largest total range (APU 65535).
     let r = PHYSICAL_STEPS as i64 * n;
     let max_pos = MAX_APU as i64 * n - 1;
-    [
-        Entry::var(0x1000, "Device type", Unsigned32, Ro, turns.device_type()),
-        Entry::var(0x1001, "Error register", Unsigned8, Ro, 0),
-        Entry::var(0x1002, "Manufacturer status register", Unsigned32, Ro, 0),
-        Entry::array(0x1003, "Pre-defined error field", 8, Rw)
-            .named("Number of errors")
-            .with_default(0)
-            .group(COMM)
-            .hook(core(CoreHook::ErrorHistory)),
-        Entry::member(0x1003, 1, "Standard error field 1", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 2, "Standard error field 2", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 3, "Standard error field 3", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 4, "Standard error field 4", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 5, "Standard error field 5", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 6, "Standard error field 6", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 7, "Standard error field 7", Unsigned32, Ro, 0).group(COMM),
-        Entry::member(0x1003, 8, "Standard error field 8", Unsigned32, Ro, 0).group(COMM),
-        Entry::var(0x1005, "COB-ID SYNC message", Unsigned32, Rw, 0x80).group(COMM).hook(core(CoreHook::SyncCobId)),
-        Entry::string(0x1008, "Manufacturer device name", model.name()),
-        Entry::string(0x1009, "Manufacturer hardware version", "V001"),
-        Entry::string(0x100A, "Manufacturer software version", "V001"),
-        Entry::var(0x100C, "Guard time", Unsigned16, Rw, 0).group(COMM).hook(core(CoreHook::Guarding)),
-        Entry::var(0x100D, "Life time factor", Unsigned8, Rw, 0).group(COMM).hook(core(CoreHook::Guarding)),
-        Entry::array(0x1010, "Store parameters", 4, Const),
-        Entry::member(0x1010, 1, "Save all parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
-        Entry::member(0x1010, 2, "Save communication parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
-        Entry::member(0x1010, 3, "Save application parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
-        Entry::member(0x1010, 4, "Save manufacturer parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Store)),
-        Entry::array(0x1011, "Restore default parameters", 4, Const),
-        Entry::member(0x1011, 1, "Restore all default parameters", Unsigned32, Rw, 1).hook(core(CoreHook::Restore)),
-        Entry::member(0x1011, 2, "Restore communication default parameters", Unsigned32, Rw, 1)
-            .hook(core(CoreHook::Restore)),
-        Entry::member(0x1011, 3, "Restore application default parameters", Unsigned32, Rw, 1)
-            .hook(core(CoreHook::Restore)),
-        Entry::member(0x1011, 4, "Restore manufacturer default parameters", Unsigned32, Rw, 1)
-            .hook(core(CoreHook::Restore)),
-        Entry::var(0x1014, "COB-ID EMCY", Unsigned32, Rw, 0)
-            .plus_node_id(0x80)
-            .group(COMM)
-            .hook(core(CoreHook::EmcyCobId)),
-        Entry::var(0x1017, "Producer heartbeat time", Unsigned16, Rw, 0)
-            .group(COMM)
-            .hook(core(CoreHook::HeartbeatTime)),
-        Entry::record(0x1018, "Identity object", 4, Const),
-        Entry::member(0x1018, 1, "Vendor-ID", Unsigned32, Ro, 0x0000_0195),
-        Entry::member(0x1018, 2, "Product code", Unsigned32, Ro, 0xFFFF_FFFF),
-        Entry::member(0x1018, 3, "Revision number", Unsigned32, Ro, 0xFFFF_FFFF),
-        Entry::member(0x1018, 4, "Serial number", Unsigned32, Ro, 1).group(Group::Factory),
-        Entry::record(0x1200, "SDO server parameter", 2, Const),
-        Entry::member(0x1200, 1, "COB-ID client to server (rx)", Unsigned32, Ro, 0).plus_node_id(0x600),
-        Entry::member(0x1200, 2, "COB-ID server to client (tx)", Unsigned32, Ro, 0).plus_node_id(0x580),
-        Entry::record(0x1800, "TPDO1 communication parameter", 5, Const),
-        Entry::member(0x1800, 1, "COB-ID used by TPDO1", Unsigned32, Rw, 0)
-            .plus_node_id(0x180)
-            .group(COMM)
-            .hook(core(CoreHook::PdoCobId)),
-        Entry::member(0x1800, 2, "Transmission type", Unsigned8, Rw, 0xFE)
-            .group(COMM)
-            .hook(core(CoreHook::PdoTransmissionType)),
-        Entry::member(0x1800, 3, "Inhibit time", Unsigned16, Ro, 0),
-        Entry::member(0x1800, 5, "Event timer", Unsigned16, Rw, 0).group(COMM).hook(dev(hooks::CYCLE_TIMER)),
-        Entry::record(0x1801, "TPDO2 communication parameter", 5, Const),
-        Entry::member(0x1801, 1, "COB-ID used by TPDO2", Unsigned32, Rw, 0)
-            .plus_node_id(0x280)
-            .group(COMM)
-            .hook(core(CoreHook::PdoCobId)),
-        Entry::member(0x1801, 2, "Transmission type", Unsigned8, Rw, 0x01)
-            .group(COMM)
-            .hook(core(CoreHook::PdoTransmissionType)),
-        Entry::member(0x1801, 3, "Inhibit time", Unsigned16, Ro, 0),
-        Entry::member(0x1801, 5, "Event timer", Unsigned16, Ro, 0),
-        Entry::record(0x1A00, "TPDO1 mapping parameter", 2, Const).named("Number of mapped objects"),
-        Entry::member(0x1A00, 1, "Mapped object 1", Unsigned32, Ro, 0x6004_0020),
-        Entry::member(0x1A00, 2, "Mapped object 2", Unsigned32, Ro, 0x6030_0110),
-        Entry::record(0x1A01, "TPDO2 mapping parameter", 2, Const).named("Number of mapped objects"),
-        Entry::member(0x1A01, 1, "Mapped object 1", Unsigned32, Ro, 0x6004_0020),
-        Entry::member(0x1A01, 2, "Mapped object 2", Unsigned32, Ro, 0x6030_0110),
-        Entry::var(0x2001, "Application offset", Integer32, Rw, 0)
-            .range(-r, r - 1)
-            .group(MANUF)
-            .hook(dev(hooks::OFFSET)),
-        Entry::var(0x2002, "Calibrate encoder value", Unsigned8, Wo, 0).range(1, 1).hook(dev(hooks::CALIBRATE)),
-        Entry::var(0x2003, "Limit speed low", Integer16, Rw, 0).group(MANUF).hook(dev(hooks::LIMIT_SPEED)),
-        Entry::var(0x2004, "Limit speed high", Integer16, Rw, 0).group(MANUF).hook(dev(hooks::LIMIT_SPEED)),
-        Entry::var(0x5000, "Diagnosis CAN bus error", Unsigned32, Ro, 0),
-        Entry::record(0x5F0A, "Node-ID and baud rate", 2, Const),
-        Entry::member(0x5F0A, 1, "Node-ID", Unsigned8, Rw, DEFAULT_NODE_ID as u32)
-            .range(1, 127)
-            .group(MANUF)
-            .hook(core(CoreHook::PendingNodeId)),
-        Entry::member(0x5F0A, 2, "Baud rate", Unsigned8, Rw, DEFAULT_BITRATE_CODE as u32)
-            .range(1, 7)
-            .group(MANUF)
-            .hook(core(CoreHook::PendingBitrate)),
-        Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, SCALING_BIT as u32)
-            .group(APP)
-            .hook(dev(hooks::OPERATING_PARAMETERS)),
-        Entry::var(0x6001, "Measuring steps per revolution", Unsigned32, Rw, PHYSICAL_STEPS)
-            .range(1, MAX_APU as i64)
-            .group(APP)
-            .hook(dev(hooks::APU)),
-        Entry::var(0x6002, "Total measuring range in measuring steps", Unsigned32, Rw, r as u32)
-            .range(1, max_pos + 1)
-            .group(APP)
-            .hook(dev(hooks::TOTAL_RANGE)),
-        Entry::var(0x6003, "Preset value", Integer32, Rw, 0).range(0, max_pos).group(APP).hook(dev(hooks::IN_RANGE)),
-        Entry::var(0x6004, "Position value", Unsigned32, Ro, 0).pdo(),
-        Entry::var(0x600C, "Position raw value", Unsigned32, Ro, 0).pdo(),
-        Entry::array(0x6030, "Speed value", 1, Ro),
-        Entry::member(0x6030, 1, "Speed value channel 1", Integer16, Ro, 0).pdo(),
-        Entry::record(0x6031, "Speed parameters", 4, Ro),
-        Entry::member(0x6031, 1, "Speed source selector", Unsigned8, Rw, 2).range(2, 2).group(APP),
-        Entry::member(0x6031, 2, "Speed integration time", Unsigned16, Ro, 100).group(APP),
-        Entry::member(0x6031, 3, "Speed multiplier", Unsigned16, Rw, 1).range(1, 1).group(APP),
-        Entry::member(0x6031, 4, "Speed divisor", Unsigned16, Rw, 1).range(1, 1).group(APP),
-        Entry::var(0x6200, "Cyclic timer", Unsigned16, Rw, 0).group(APP).hook(dev(hooks::CYCLE_TIMER)),
-        Entry::array(0x6400, "Area state register", 2, Ro),
-        Entry::member(0x6400, 1, "Work area state channel 1", Unsigned8, Ro, 0),
-        Entry::member(0x6400, 2, "Work area state channel 2", Unsigned8, Ro, 0),
-        Entry::array(0x6401, "Work area low limit", 2, Ro),
-        Entry::member(0x6401, 1, "Work area low limit channel 1", Integer32, Rw, 0)
-            .range(0, max_pos)
-            .group(APP)
-            .hook(dev(hooks::IN_RANGE)),
-        Entry::member(0x6401, 2, "Work area low limit channel 2", Integer32, Rw, 0)
-            .range(0, max_pos)
-            .group(APP)
-            .hook(dev(hooks::IN_RANGE)),
-        Entry::array(0x6402, "Work area high limit", 2, Ro),
-        Entry::member(0x6402, 1, "Work area high limit channel 1", Integer32, Rw, 0)
-            .range(0, max_pos)
-            .group(APP)
-            .hook(dev(hooks::IN_RANGE)),
-        Entry::member(0x6402, 2, "Work area high limit channel 2", Integer32, Rw, 0)
-            .range(0, max_pos)
-            .group(APP)
-            .hook(dev(hooks::IN_RANGE)),
-        Entry::var(0x6500, "Operating status", Unsigned16, Ro, SCALING_BIT as u32),
-        Entry::var(0x6501, "Single-turn resolution", Unsigned32, Ro, PHYSICAL_STEPS),
-        Entry::var(0x6502, "Number of distinguishable revolutions", Unsigned16, Ro, n as u32),
-        Entry::var(0x6503, "Alarms", Unsigned16, Ro, 0),
-        Entry::var(0x6504, "Supported alarms", Unsigned16, Ro, 0x3001),
-        Entry::var(0x6505, "Warnings", Unsigned16, Ro, 0),
-        Entry::var(0x6506, "Supported warnings", Unsigned16, Ro, 0x0001),
-        Entry::var(0x6507, "Profile and software version", Unsigned32, Ro, 0x0100_0302),
-        Entry::var(0x6508, "Operating time", Unsigned32, Ro, 0xFFFF_FFFF),
-        Entry::var(0x6509, "Offset value", Integer32, Ro, 0).group(APP),
-        Entry::array(0x650A, "Module identification", 3, Ro),
-        Entry::member(0x650A, 1, "Manufacturer offset value", Integer32, Ro, 0),
-        Entry::member(0x650A, 2, "Manufacturer minimum position value", Integer32, Ro, 0),
-        Entry::member(0x650A, 3, "Manufacturer maximum position value", Integer32, Ro, (r - 1) as u32),
-        Entry::var(0x650B, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
-        Entry::var(0x650D, "Absolute accuracy", Unsigned8, Ro, 0x08),
-        Entry::var(0x650E, "Device functionality", Unsigned32, Ro, 0x0000_0002),
-    ]
+    comm::join(&[
+        comm::rows(&profile(model, turns)).as_slice(),
+        &[
+            Entry::var(0x2001, "Application offset", Integer32, Rw, 0)
+                .range(-r, r - 1)
+                .group(MANUF)
+                .hook(dev(hooks::OFFSET)),
+            Entry::var(0x2002, "Calibrate encoder value", Unsigned8, Wo, 0).range(1, 1).hook(dev(hooks::CALIBRATE)),
+            Entry::var(0x2003, "Limit speed low", Integer16, Rw, 0).group(MANUF).hook(dev(hooks::LIMIT_SPEED)),
+            Entry::var(0x2004, "Limit speed high", Integer16, Rw, 0).group(MANUF).hook(dev(hooks::LIMIT_SPEED)),
+            Entry::var(0x5000, "Diagnosis CAN bus error", Unsigned32, Ro, 0),
+        ],
+        comm::node_id_and_bitrate(&NODE).as_slice(),
+        &[
+            Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, SCALING_BIT as u32)
+                .group(APP)
+                .hook(dev(hooks::OPERATING_PARAMETERS)),
+            Entry::var(0x6001, "Measuring steps per revolution", Unsigned32, Rw, PHYSICAL_STEPS)
+                .range(1, MAX_APU as i64)
+                .group(APP)
+                .hook(dev(hooks::APU)),
+            Entry::var(0x6002, "Total measuring range in measuring steps", Unsigned32, Rw, r as u32)
+                .range(1, max_pos + 1)
+                .group(APP)
+                .hook(dev(hooks::TOTAL_RANGE)),
+            Entry::var(0x6003, "Preset value", Integer32, Rw, 0)
+                .range(0, max_pos)
+                .group(APP)
+                .hook(dev(hooks::IN_RANGE)),
+            Entry::var(0x6004, "Position value", Unsigned32, Ro, 0).pdo(),
+            Entry::var(0x600C, "Position raw value", Unsigned32, Ro, 0).pdo(),
+            Entry::array(0x6030, "Speed value", 1, Ro),
+            Entry::member(0x6030, 1, "Speed value channel 1", Integer16, Ro, 0).pdo(),
+            Entry::record(0x6031, "Speed parameters", 4, Ro),
+            Entry::member(0x6031, 1, "Speed source selector", Unsigned8, Rw, 2).range(2, 2).group(APP),
+            Entry::member(0x6031, 2, "Speed integration time", Unsigned16, Ro, 100).group(APP),
+            Entry::member(0x6031, 3, "Speed multiplier", Unsigned16, Rw, 1).range(1, 1).group(APP),
+            Entry::member(0x6031, 4, "Speed divisor", Unsigned16, Rw, 1).range(1, 1).group(APP),
+            Entry::var(0x6200, "Cyclic timer", Unsigned16, Rw, 0).group(APP).hook(dev(hooks::CYCLE_TIMER)),
+            Entry::array(0x6400, "Area state register", 2, Ro),
+            Entry::member(0x6400, 1, "Work area state channel 1", Unsigned8, Ro, 0),
+            Entry::member(0x6400, 2, "Work area state channel 2", Unsigned8, Ro, 0),
+            Entry::array(0x6401, "Work area low limit", 2, Ro),
+            Entry::member(0x6401, 1, "Work area low limit channel 1", Integer32, Rw, 0)
+                .range(0, max_pos)
+                .group(APP)
+                .hook(dev(hooks::IN_RANGE)),
+            Entry::member(0x6401, 2, "Work area low limit channel 2", Integer32, Rw, 0)
+                .range(0, max_pos)
+                .group(APP)
+                .hook(dev(hooks::IN_RANGE)),
+            Entry::array(0x6402, "Work area high limit", 2, Ro),
+            Entry::member(0x6402, 1, "Work area high limit channel 1", Integer32, Rw, 0)
+                .range(0, max_pos)
+                .group(APP)
+                .hook(dev(hooks::IN_RANGE)),
+            Entry::member(0x6402, 2, "Work area high limit channel 2", Integer32, Rw, 0)
+                .range(0, max_pos)
+                .group(APP)
+                .hook(dev(hooks::IN_RANGE)),
+            Entry::var(0x6500, "Operating status", Unsigned16, Ro, SCALING_BIT as u32),
+            Entry::var(0x6501, "Single-turn resolution", Unsigned32, Ro, PHYSICAL_STEPS),
+            Entry::var(0x6502, "Number of distinguishable revolutions", Unsigned16, Ro, n as u32),
+            Entry::var(0x6503, "Alarms", Unsigned16, Ro, 0),
+            Entry::var(0x6504, "Supported alarms", Unsigned16, Ro, 0x3001),
+            Entry::var(0x6505, "Warnings", Unsigned16, Ro, 0),
+            Entry::var(0x6506, "Supported warnings", Unsigned16, Ro, 0x0001),
+            Entry::var(0x6507, "Profile and software version", Unsigned32, Ro, 0x0100_0302),
+            Entry::var(0x6508, "Operating time", Unsigned32, Ro, 0xFFFF_FFFF),
+            Entry::var(0x6509, "Offset value", Integer32, Ro, 0).group(APP),
+            Entry::array(0x650A, "Module identification", 3, Ro),
+            Entry::member(0x650A, 1, "Manufacturer offset value", Integer32, Ro, 0),
+            Entry::member(0x650A, 2, "Manufacturer minimum position value", Integer32, Ro, 0),
+            Entry::member(0x650A, 3, "Manufacturer maximum position value", Integer32, Ro, (r - 1) as u32),
+            Entry::var(0x650B, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
+            Entry::var(0x650D, "Absolute accuracy", Unsigned8, Ro, 0x08),
+            Entry::var(0x650E, "Device functionality", Unsigned32, Ro, 0x0000_0002),
+        ],
+    ])
 }
 
 static WV_1: [Entry; ENTRIES] = table(Model::Wv, Turns::Single);
