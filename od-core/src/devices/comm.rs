@@ -44,7 +44,7 @@
 //! communication parameters with sub-indices 1, 2, 3 and 5 (no 4, no 6), the inhibit time
 //! read-only 0, and fixed, read-only PDO mappings.
 
-use crate::od::{Access, CoreHook, DataType, Entry, Group, Hook, Kind};
+use crate::od::{Access, CoreHook, DataType, Entry, Group, Hook, Kind, MAX_ENTRIES};
 
 /// The serial number in 1018h sub 4.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -189,9 +189,8 @@ impl NodeIdAndBitrate {
     }
 }
 
-/// Most rows one [`Rows`] holds: the CANopen profile with four RPDOs and four TPDOs of four
-/// mapped objects each needs 94.
-pub const ROWS_MAX: usize = 96;
+/// Most rows one [`Rows`] holds: as many as a whole dictionary ([`MAX_ENTRIES`]).
+pub const ROWS_MAX: usize = MAX_ENTRIES;
 
 /// Rows the builder wrote, sorted by (index, sub); a part of a table for [`join`]. A
 /// compile-time value only: it is as large as [`ROWS_MAX`] entries.
@@ -689,6 +688,21 @@ mod tests {
         assert_eq!((r[3].default, r[3].limits()), (Default::Value(0), Some((0, 5))));
         assert_eq!(r[3].hook, Hook::Core(CoreHook::PendingBitrate));
         assert!(r[1..].iter().all(|e| e.group == Group::Manuf));
+    }
+
+    #[test]
+    fn four_pdos_each_way_of_eight_objects_fit_and_are_named() {
+        const EIGHT: [u32; MAPPED_MAX] = [0x6000_0008; MAPPED_MAX];
+        const FOUR: [Pdo; PDOS_MAX] = [Pdo::new(0xFE, &EIGHT); PDOS_MAX];
+        static TABLE: [Entry; 38 + 8 * (5 + 1 + 8)] =
+            join(&[rows(&Profile { canopen: Some(CanOpen { rpdos: &FOUR, tpdos: &FOUR }), ..AP10T }).as_slice()]);
+        let od = Od::new(&TABLE, 1);
+        assert_eq!(od.value(0x1403, 1), Some(0x501));
+        assert_eq!(od.value(0x1803, 1), Some(0x481));
+        let e = |i, s| od.entry(od.pos(i, s).unwrap());
+        assert_eq!(e(0x1A03, 8).name, "Mapped object 8");
+        assert_eq!(e(0x1603, 0).kind, Kind::Head { object: "RPDO4 mapping parameter", array: false });
+        assert_eq!(e(0x1803, 1).name, "COB-ID used by TPDO4");
     }
 
     const A: Entry = Entry::var(0x1000, "A", DataType::Unsigned8, Access::Ro, 0);
