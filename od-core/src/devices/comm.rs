@@ -38,7 +38,8 @@
 //! Everything here is `const fn` and runs while the table's `static` is compiled: the firmware
 //! keeps the same table in flash as a hand-written one, and a declaration mistake (a part out
 //! of (index, sub) order, a table length that is not the declared one, a member without its
-//! object, more PDOs than CiA 301 names) fails the build with the message of its `assert!`.
+//! object, more than four PDOs of one direction) fails the build with the message of its
+//! `assert!`.
 //!
 //! Every record and array the builder writes is laid out as the SIKO manuals print it: PDO
 //! communication parameters with sub-indices 1, 2, 3 and 5 (no 4, no 6), the inhibit time
