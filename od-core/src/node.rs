@@ -13,7 +13,7 @@ use crate::guarding::{self, Guarding};
 use crate::heartbeat::{self, Heartbeat};
 use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
-use crate::od::{CoreHook, Entry, GroupMask, Hook, Od};
+use crate::od::{CoreHook, Default as OdDefault, Entry, Group, GroupMask, Hook, Od};
 use crate::pdo::{self, PdoEvent, Pdos};
 use crate::sdo::{ObjectAccess, SdoServer, Written};
 use crate::storage::{self, Image, Loaded, Record, Storage};
@@ -480,6 +480,7 @@ impl<D: Device> Node<D> {
         let device = &self.device;
         storage::reload(&mut self.core, kind, |e, groups| device.restores(e, groups));
         self.activate_pending();
+        sdo_cob_ids(&mut self.core);
         // The reloaded PDO configuration and node-ID count from now (filters, caches).
         pdo::reset(&mut self.core, now);
         lss::reset(&mut self.core);
@@ -510,6 +511,20 @@ impl<D: Device> Node<D> {
         guarding::reset(&mut self.core);
         pdo::reset(&mut self.core, now);
         storage::boot_up(&mut self.core, now);
+    }
+}
+
+/// Sets the entries that no parameter group stores and whose default is "base + node-ID" to
+/// that default for the active node-ID: 1200h sub 1/2, the read-only SDO COB-IDs ("600h +
+/// Node-ID", "580h + Node-ID"), always name the identifiers the SDO server uses, also after a
+/// reset that activated a new node-ID (issue 13 point 8, D-SDO-7). Stored COB-IDs (1014h,
+/// PDOs) follow the node-ID through `storage::reload` instead.
+fn sdo_cob_ids(core: &mut Core) {
+    let id = core.node_id;
+    for (pos, e) in core.od.table().iter().enumerate() {
+        if e.group == Group::None && matches!(e.default, OdDefault::PlusNodeId(_)) {
+            core.od.set(pos, e.default_value(id));
+        }
     }
 }
 

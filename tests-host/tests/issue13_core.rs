@@ -1,0 +1,106 @@
+//! Issue 13, "Core and devices" (points 8 to 14): what an integrator trips over on the SGH10,
+//! SGH50 and WV5800M, driven from the bus only (SDO, NMT and LSS frames byte for byte, the
+//! sensor through `tests_host::encoder::Sensor`). Each test failed before its fix; the
+//! decisions are in docs/decisions.md (the entries citing "issue 13 point N").
+
+use od_core::devices::sgh10::{self, Sgh10};
+use od_core::devices::sgh50::{self, Sgh50};
+use od_core::devices::wv5800m::{self, Model, Turns, Wv5800m};
+use od_core::encoder::Encoder;
+use od_core::{Bitrate, Frame, Node};
+use tests_host::bus::Bus;
+use tests_host::encoder::{sdo_read, sdo_write, Sensed, Sensor};
+
+/// The three CiA 406 encoders of the issue, each as a node with `node_id` (FFh: unconfigured,
+/// LSS only) on a fresh bus, its sensor at a valid reading, after its boot-up message. The
+/// closure gets the device's name and the bus.
+fn each_encoder(node_id: u8, mut check: impl FnMut(&str, &mut Bus)) {
+    fn on_bus<E: Encoder + 'static>(node: Node<E>, raw: u32) -> Bus {
+        let mut bus = Bus::new();
+        bus.add(Sensed::new(node, Sensor::new(raw)));
+        bus
+    }
+    let wv = wv5800m::Variant { model: Model::Wv, turns: Turns::Multi12 };
+    let mut buses = [
+        ("SGH10", on_bus(Node::new(Sgh10::new(sgh10::Variant::Sgh10), node_id, Bitrate::K500), 51_000)),
+        ("SGH50", on_bus(Node::new(Sgh50::new(sgh50::Variant::Single), node_id, Bitrate::K500), 51_000)),
+        ("WV5800M", on_bus(Node::new(Wv5800m::new(wv), node_id, Bitrate::K500), 1000)),
+    ];
+    for (name, bus) in &mut buses {
+        if node_id != 0xFF {
+            bus.expect(0x700 + node_id as u16, &[0x00]);
+        }
+        bus.expect_silence();
+        check(name, bus);
+    }
+}
+
+/// NMT command `cs` to `node` (0: all).
+fn nmt(bus: &mut Bus, cs: u8, node: u8) {
+    bus.send(Frame::std(0x000, &[cs, node]));
+}
+
+/// An LSS request on 7E5h.
+fn lss(bus: &mut Bus, data: [u8; 8]) {
+    bus.send(Frame::std(0x7E5, &data));
+}
+
+// Point 8: 1200h sub 1/2 name the SDO identifiers in use (manuals: SGH10 4.7.2.16, SGH50
+// 4.7.2.16, WV5800M 5.7.2.16 "Default 00000600h + Node-ID", and the identifier tables of
+// §4.1 / §5.1: "SDO (rx) 600h + Node-ID").
+
+#[test]
+fn sdo_cob_ids_follow_a_node_id_changed_by_5f0ah_and_reset() {
+    each_encoder(1, |name, bus| {
+        assert_eq!(sdo_read(bus, 1, 0x1200, 1), 0x601, "{name}");
+        assert_eq!(sdo_read(bus, 1, 0x1200, 2), 0x581, "{name}");
+        // 5F0Ah.01 = 5, then NMT Reset Communication: the node is node 5 (manual 4.1 "after
+        // re-initialization").
+        sdo_write(bus, 1, 0x5F0A, 1, 1, 5);
+        nmt(bus, 0x82, 1);
+        bus.expect(0x705, &[0x00]);
+        assert_eq!(sdo_read(bus, 5, 0x1200, 1), 0x605, "{name}: 1200h.01 after 82h");
+        assert_eq!(sdo_read(bus, 5, 0x1200, 2), 0x585, "{name}: 1200h.02 after 82h");
+        // And again with Reset Node.
+        sdo_write(bus, 5, 0x5F0A, 1, 1, 0x7F);
+        nmt(bus, 0x81, 5);
+        bus.expect(0x77F, &[0x00]);
+        assert_eq!(sdo_read(bus, 0x7F, 0x1200, 1), 0x67F, "{name}: 1200h.01 after 81h");
+        assert_eq!(sdo_read(bus, 0x7F, 0x1200, 2), 0x5FF, "{name}: 1200h.02 after 81h");
+    });
+}
+
+#[test]
+fn sdo_cob_ids_of_a_node_commissioned_from_unconfigured_by_lss() {
+    // Powered on unconfigured (a stored node-ID FFh, as LSS leaves it): it answers LSS only.
+    each_encoder(0xFF, |name, bus| {
+        bus.advance(100);
+        bus.expect_silence();
+        // Commissioning (CiA 305): configuration state, node-ID 0Ah, back to waiting: the
+        // node activates the node-ID itself and boots up.
+        lss(bus, [0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+        lss(bus, [0x11, 0x0A, 0, 0, 0, 0, 0, 0]);
+        bus.expect(0x7E4, &[0x11, 0x00, 0, 0, 0, 0, 0, 0]);
+        lss(bus, [0x04, 0x00, 0, 0, 0, 0, 0, 0]);
+        bus.expect(0x70A, &[0x00]);
+        bus.send(Frame::std(0x60A, &[0x40, 0x00, 0x12, 0x01, 0, 0, 0, 0]));
+        bus.expect(0x58A, &[0x43, 0x00, 0x12, 0x01, 0x0A, 0x06, 0x00, 0x00]);
+        bus.send(Frame::std(0x60A, &[0x40, 0x00, 0x12, 0x02, 0, 0, 0, 0]));
+        bus.expect(0x58A, &[0x43, 0x00, 0x12, 0x02, 0x8A, 0x05, 0x00, 0x00]);
+        bus.expect_silence();
+        // Unconfigured again (FFh and 82h), then node-ID 0Bh the same way.
+        lss(bus, [0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+        lss(bus, [0x11, 0xFF, 0, 0, 0, 0, 0, 0]);
+        bus.expect(0x7E4, &[0x11, 0x00, 0, 0, 0, 0, 0, 0]);
+        nmt(bus, 0x82, 0x0A);
+        bus.advance(100);
+        bus.expect_silence();
+        lss(bus, [0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+        lss(bus, [0x11, 0x0B, 0, 0, 0, 0, 0, 0]);
+        bus.expect(0x7E4, &[0x11, 0x00, 0, 0, 0, 0, 0, 0]);
+        lss(bus, [0x04, 0x00, 0, 0, 0, 0, 0, 0]);
+        bus.expect(0x70B, &[0x00]);
+        assert_eq!(sdo_read(bus, 0x0B, 0x1200, 1), 0x60B, "{name}");
+        assert_eq!(sdo_read(bus, 0x0B, 0x1200, 2), 0x58B, "{name}");
+    });
+}
