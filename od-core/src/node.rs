@@ -497,7 +497,8 @@ impl<D: Device> Node<D> {
             }
         }
         if let Some(rate) = pending_bitrate(&self.device, &self.core.od) {
-            if rate != self.core.bitrate {
+            // A rate LSS configured waits for activate bit timing or a power cycle (D-LSS-15).
+            if rate != self.core.bitrate && !lss::rate_awaits_activation(&self.core) {
                 self.core.bitrate = rate;
                 self.core.out.push(Output::SetBitrate(rate));
             }
@@ -593,6 +594,11 @@ fn core_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Inst
         | CoreHook::PdoMapping => pdo::on_write(core, hook, pos, value, now).map(|()| Written::Done),
         // 5F0Ah and alike hold the pending node-ID and bit-rate code: storing the value (its
         // range is the entry's limits) is the whole write; the next reset activates it.
-        CoreHook::PendingNodeId | CoreHook::PendingBitrate => Ok(Written::Done),
+        CoreHook::PendingNodeId => Ok(Written::Done),
+        CoreHook::PendingBitrate => {
+            // An SDO-written rate is adopted at the next reset, also over an LSS-configured one.
+            lss::rate_written(core);
+            Ok(Written::Done)
+        }
     }
 }

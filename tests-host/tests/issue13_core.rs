@@ -104,3 +104,85 @@ fn sdo_cob_ids_of_a_node_commissioned_from_unconfigured_by_lss() {
         assert_eq!(sdo_read(bus, 0x0B, 0x1200, 2), 0x58B, "{name}");
     });
 }
+
+// Point 9: an LSS-configured bit rate takes effect through LSS activate bit timing (15h) or a
+// power cycle only (CiA 305; SGH10/SGH50 4.6.2.2, WV5800M 5.6.2.2: "To activate the new baud
+// rate the Activate baud rate ... command must be executed ... Another possibility ... power
+// off/on after Store configuration"); a 5F0Ah.02 write keeps "adoption ... only after
+// re-initialization" (SGH10 4.1, WV5800M 5.1).
+
+#[test]
+fn nmt_resets_apply_an_lss_node_id_but_not_an_lss_bit_rate() {
+    each_encoder(1, |name, bus| {
+        lss(bus, [0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+        lss(bus, [0x11, 0x05, 0, 0, 0, 0, 0, 0]);
+        bus.expect(0x7E4, &[0x11, 0x00, 0, 0, 0, 0, 0, 0]);
+        // Table index 4: 125 kbit/s.
+        lss(bus, [0x13, 0x00, 0x04, 0, 0, 0, 0, 0]);
+        bus.expect(0x7E4, &[0x13, 0x00, 0, 0, 0, 0, 0, 0]);
+        lss(bus, [0x04, 0x00, 0, 0, 0, 0, 0, 0]);
+        // 82h activates the node-ID; the node boots up on node 5 at 500 kbit/s.
+        nmt(bus, 0x82, 1);
+        bus.expect(0x705, &[0x00]);
+        assert_eq!(bus.node_bitrate(0), Bitrate::K500, "{name}: 82h");
+        nmt(bus, 0x81, 5);
+        bus.expect(0x705, &[0x00]);
+        assert_eq!(bus.node_bitrate(0), Bitrate::K500, "{name}: 81h");
+        bus.expect_silence();
+        // The configured rate is still pending: activate bit timing (d1 = d2 = 10 ms) applies it.
+        lss(bus, [0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+        lss(bus, [0x15, 0x0A, 0x00, 0, 0, 0, 0, 0]);
+        bus.advance(10);
+        assert_eq!(bus.node_bitrate(0), Bitrate::K125, "{name}: 15h");
+        bus.set_bitrate(Bitrate::K125);
+        bus.advance(10);
+        bus.expect(0x705, &[0x00]);
+        // Applied: a reset keeps it.
+        nmt(bus, 0x82, 5);
+        bus.expect(0x705, &[0x00]);
+        assert_eq!(bus.node_bitrate(0), Bitrate::K125, "{name}: 82h after 15h");
+    });
+}
+
+#[test]
+fn a_5f0ah_bit_rate_write_after_an_lss_one_is_adopted_at_the_reset() {
+    each_encoder(1, |name, bus| {
+        lss(bus, [0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+        lss(bus, [0x13, 0x00, 0x04, 0, 0, 0, 0, 0]);
+        bus.expect(0x7E4, &[0x13, 0x00, 0, 0, 0, 0, 0, 0]);
+        lss(bus, [0x04, 0x00, 0, 0, 0, 0, 0, 0]);
+        // 5F0Ah.02 reads the pending code (3 = 125 kbit/s); the SDO write of 4 (250 kbit/s)
+        // is the manual's "after re-initialization".
+        assert_eq!(sdo_read(bus, 1, 0x5F0A, 2), 3, "{name}");
+        sdo_write(bus, 1, 0x5F0A, 2, 1, 4);
+        nmt(bus, 0x82, 1);
+        bus.expect_silence();
+        assert_eq!(bus.node_bitrate(0), Bitrate::K250, "{name}");
+    });
+}
+
+#[test]
+fn a_stored_lss_bit_rate_waits_for_the_power_cycle() {
+    use od_core::storage::{identity, ParamFlash, Region};
+    use tests_host::flash::RamFlash;
+    let params = ParamFlash::new(RamFlash::new(2), Region { offset: 0, pages: 2 }, identity(sgh10::TABLE));
+    let mut bus = Bus::new();
+    bus.add_with_flash(params, |loaded| Node::boot(tests_host::TableOnly(sgh10::TABLE), loaded));
+    bus.expect(0x701, &[0x00]);
+    lss(&mut bus, [0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+    lss(&mut bus, [0x13, 0x00, 0x04, 0, 0, 0, 0, 0]);
+    bus.expect(0x7E4, &[0x13, 0x00, 0, 0, 0, 0, 0, 0]);
+    lss(&mut bus, [0x17, 0x00, 0, 0, 0, 0, 0, 0]);
+    bus.expect(0x7E4, &[0x17, 0x00, 0, 0, 0, 0, 0, 0]);
+    lss(&mut bus, [0x04, 0x00, 0, 0, 0, 0, 0, 0]);
+    nmt(&mut bus, 0x82, 0);
+    bus.expect(0x701, &[0x00]);
+    nmt(&mut bus, 0x81, 0);
+    bus.expect(0x701, &[0x00]);
+    assert_eq!(bus.node_bitrate(0), Bitrate::K500);
+    bus.power_cycle(0);
+    assert_eq!(bus.node_bitrate(0), Bitrate::K125);
+    bus.set_bitrate(Bitrate::K125);
+    bus.power_cycle(0);
+    bus.expect(0x701, &[0x00]);
+}
