@@ -186,3 +186,54 @@ fn a_stored_lss_bit_rate_waits_for_the_power_cycle() {
     bus.power_cycle(0);
     bus.expect(0x701, &[0x00]);
 }
+
+// Point 10: a 1011h restore is applied by the next NMT reset, 81h or 82h, for every group it
+// named (manuals 4.7.2.12 / 5.7.2.12: 'The string "load" must be sent ... and reset executed
+// thereafter'); a save before that reset does not cancel it.
+
+const SAVE_ALL: [u8; 8] = [0x23, 0x10, 0x10, 0x01, 0x73, 0x61, 0x76, 0x65];
+const LOAD_ALL: [u8; 8] = [0x23, 0x11, 0x10, 0x01, 0x6C, 0x6F, 0x61, 0x64];
+
+/// 100Ch (communication) := 50 and 6200h (application, the TPDO1 cycle) := 100 on node 1,
+/// saved with 1010h.01.
+fn change_and_save(bus: &mut Bus) {
+    sdo_write(bus, 1, 0x100C, 0, 2, 50);
+    sdo_write(bus, 1, 0x6200, 0, 2, 100);
+    bus.send(Frame::std(0x601, &SAVE_ALL));
+    bus.expect(0x581, &[0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0]);
+}
+
+#[test]
+fn a_restore_of_all_groups_is_applied_by_reset_communication() {
+    each_encoder(1, |name, bus| {
+        change_and_save(bus);
+        bus.send(Frame::std(0x601, &LOAD_ALL));
+        bus.expect(0x581, &[0x60, 0x11, 0x10, 0x01, 0, 0, 0, 0]);
+        nmt(bus, 0x82, 1);
+        bus.expect(0x701, &[0x00]);
+        assert_eq!(sdo_read(bus, 1, 0x100C, 0), 0, "{name}: communication group");
+        assert_eq!(sdo_read(bus, 1, 0x6200, 0), 0, "{name}: application group by 82h too");
+        assert_eq!(sdo_read(bus, 1, 0x1800, 5), 0, "{name}");
+        // Applied: the next 81h loads the stored values again.
+        nmt(bus, 0x81, 1);
+        bus.expect(0x701, &[0x00]);
+        assert_eq!(sdo_read(bus, 1, 0x100C, 0), 50, "{name}");
+        assert_eq!(sdo_read(bus, 1, 0x6200, 0), 100, "{name}");
+    });
+}
+
+#[test]
+fn a_save_after_a_restore_does_not_cancel_it() {
+    each_encoder(1, |name, bus| {
+        sdo_write(bus, 1, 0x100C, 0, 2, 50);
+        sdo_write(bus, 1, 0x6200, 0, 2, 100);
+        bus.send(Frame::std(0x601, &LOAD_ALL));
+        bus.expect(0x581, &[0x60, 0x11, 0x10, 0x01, 0, 0, 0, 0]);
+        bus.send(Frame::std(0x601, &SAVE_ALL));
+        bus.expect(0x581, &[0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0]);
+        nmt(bus, 0x81, 1);
+        bus.expect(0x701, &[0x00]);
+        assert_eq!(sdo_read(bus, 1, 0x100C, 0), 0, "{name}");
+        assert_eq!(sdo_read(bus, 1, 0x6200, 0), 0, "{name}");
+    });
+}
