@@ -237,3 +237,120 @@ fn a_save_after_a_restore_does_not_cancel_it() {
         assert_eq!(sdo_read(bus, 1, 0x6200, 0), 0, "{name}");
     });
 }
+
+// Point 11: the SGH10's EMCY FF12h "speed error" (manual Table 9, conditions not stated, digest
+// A21/A27) is raised when the speed value cannot be represented in 6030h.01 at the step width
+// 6005h.02 (it saturates), never for a sensor fault: FF05h "position value error" reports that.
+
+fn emcy(code: u16, register: u8) -> [u8; 8] {
+    let c = code.to_le_bytes();
+    [c[0], c[1], register, 0, 0, 0, 0, 0]
+}
+
+fn sgh10_on_bus(um: u32) -> (Bus, Sensor) {
+    let sensor = Sensor::new(um);
+    let mut bus = Bus::new();
+    let node = Node::new(Sgh10::new(sgh10::Variant::Sgh10), 1, Bitrate::K500);
+    bus.add(Sensed::new(node, sensor.clone()));
+    bus.expect(0x701, &[0x00]);
+    bus.expect_silence();
+    (bus, sensor)
+}
+
+#[test]
+fn sgh10_sensor_fault_raises_ff05h_and_no_speed_error() {
+    let (mut bus, sensor) = sgh10_on_bus(51_000);
+    bus.advance(200);
+    sensor.fail(od_core::encoder::SensorFault::Diagnosis);
+    bus.advance(1);
+    bus.expect(0x081, &emcy(0xFF05, 0x81));
+    bus.expect_silence();
+    bus.advance(100);
+    bus.expect_silence();
+    sensor.heal();
+    bus.advance(1);
+    bus.expect(0x081, &emcy(0x0000, 0x00));
+    // A whole integration time later the speed is valid again: nothing to report.
+    bus.advance(200);
+    bus.expect_silence();
+    assert_eq!(sdo_read(&mut bus, 1, 0x1003, 0), 1);
+    assert_eq!(sdo_read(&mut bus, 1, 0x1003, 1), 0xFF05);
+    // A reading beyond the measuring range is a sensor fault too: FF05h alone.
+    sensor.set(1_024_000);
+    bus.advance(1);
+    bus.expect(0x081, &emcy(0xFF05, 0x81));
+    bus.expect_silence();
+}
+
+/// An SGH10 whose wire could be pulled faster than 6030h.01 can show (the real drum cannot:
+/// 1023.9 mm in one 100 ms window is 10239 mm/s, within INTEGER16 at 1 mm/s): the SGH10's
+/// dictionary and rules, with a measuring range wide enough to saturate the speed.
+struct FastSgh10(od_core::encoder::linear::Linear);
+
+impl od_core::node::Device for FastSgh10 {
+    fn table(&self) -> &'static [od_core::od::Entry] {
+        sgh10::TABLE
+    }
+    fn on_write(
+        &mut self,
+        core: &mut od_core::node::Core,
+        pos: usize,
+        value: u32,
+        now: od_core::Instant,
+    ) -> Result<(), od_core::Abort> {
+        self.0.on_write(core, pos, value, now)
+    }
+    fn on_reset(&mut self, core: &mut od_core::node::Core, kind: od_core::node::ResetKind, now: od_core::Instant) {
+        self.0.on_reset(core, kind, now);
+    }
+    fn poll(&mut self, core: &mut od_core::node::Core, now: od_core::Instant) {
+        self.0.poll(core, now);
+    }
+}
+
+impl Encoder for FastSgh10 {
+    fn on_sample(
+        &mut self,
+        core: &mut od_core::node::Core,
+        raw: Result<u32, od_core::encoder::SensorFault>,
+        now: od_core::Instant,
+    ) {
+        self.0.on_sample(core, raw, now);
+    }
+    fn sample_period_us(&self) -> u32 {
+        sgh10::SPEC.sample_period_us
+    }
+}
+
+#[test]
+fn sgh10_speed_beyond_integer16_raises_ff12h_until_it_fits_again() {
+    let spec = od_core::encoder::linear::LinearSpec { max_steps: i32::MAX as i64, ..sgh10::SPEC };
+    let sensor = Sensor::new(0);
+    let mut bus = Bus::new();
+    let mut node = Node::new(FastSgh10(od_core::encoder::linear::Linear::new(spec)), 1, Bitrate::K500);
+    // Work areas as wide as the position value, so that only the speed is judged.
+    for k in 1..=2 {
+        assert!(node.split().1.od.set_value(0x6401, k, i32::MIN as u32));
+        assert!(node.split().1.od.set_value(0x6402, k, i32::MAX as u32));
+    }
+    bus.add(Sensed::new(node, sensor.clone()));
+    bus.expect(0x701, &[0x00]);
+    bus.advance(200);
+    // 32767 mm/s fits 6030h.01 (1 mm/s per digit): no error.
+    sensor.move_at(32_767_000);
+    bus.advance(300);
+    bus.expect_silence();
+    assert_eq!(sdo_read(&mut bus, 1, 0x6030, 1), 32767);
+    // 32768 mm/s does not: 6030h.01 saturates and FF12h is raised, once.
+    sensor.move_at(32_768_000);
+    bus.advance(300);
+    bus.expect(0x081, &emcy(0xFF12, 0x81));
+    bus.expect_silence();
+    assert_eq!(sdo_read(&mut bus, 1, 0x6030, 1), 32767);
+    // Slower again: cleared at the next window.
+    sensor.move_at(-1_000_000);
+    bus.advance(200);
+    bus.expect(0x081, &emcy(0x0000, 0x00));
+    bus.expect_silence();
+    assert_eq!(sdo_read(&mut bus, 1, 0x6030, 1) as u16 as i16, -1000);
+}
