@@ -556,6 +556,11 @@ impl<D: Device> ObjectAccess for Dict<'_, D> {
         Ok(self.core.od.encode(pos, buf))
     }
 
+    fn write_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort> {
+        let pos = self.core.od.find(index, sub)?;
+        Ok(self.core.od.entry(pos).size())
+    }
+
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
         let pos = self.core.od.find(index, sub)?;
         let value = self.core.od.check_write(pos, data)?;

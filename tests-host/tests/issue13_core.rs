@@ -354,3 +354,48 @@ fn sgh10_speed_beyond_integer16_raises_ff12h_until_it_fits_again() {
     bus.expect_silence();
     assert_eq!(sdo_read(&mut bus, 1, 0x6030, 1) as u16 as i16, -1000);
 }
+
+// Point 12: an expedited download without size indication (22h, CiA 301 §7.2.4.3.3: s = 0,
+// "the data size is not indicated") writes the object's size from bytes 4..; a download whose
+// indicated size differs from the object keeps CiA 301's 06070012h (too long) / 06070013h
+// (too short). No manual's abort table lists them (SGH10 4.3.3, SGH50 4.3.3, WV5800M 5.3.3).
+
+/// Sends an SDO request to node 1 and expects exactly `answer`.
+#[track_caller]
+fn sdo(bus: &mut Bus, request: [u8; 8], answer: [u8; 8]) {
+    bus.send(Frame::std(0x601, &request));
+    bus.expect(0x581, &answer);
+}
+
+#[test]
+fn expedited_download_without_size_takes_the_object_size() {
+    each_encoder(1, |name, bus| {
+        // 1017h, UNSIGNED16: 1000 ms; bytes 6..7 are not part of the value.
+        sdo(bus, [0x22, 0x17, 0x10, 0x00, 0xE8, 0x03, 0xFF, 0xFF], [0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0]);
+        assert_eq!(sdo_read(bus, 1, 0x1017, 0), 1000, "{name}");
+        // 100Dh, UNSIGNED8.
+        sdo(bus, [0x22, 0x0D, 0x10, 0x00, 0x03, 0xAA, 0xBB, 0xCC], [0x60, 0x0D, 0x10, 0x00, 0, 0, 0, 0]);
+        assert_eq!(sdo_read(bus, 1, 0x100D, 0), 3, "{name}");
+        // 1014h, UNSIGNED32, as before.
+        sdo(bus, [0x22, 0x14, 0x10, 0x00, 0x81, 0x00, 0x00, 0x80], [0x60, 0x14, 0x10, 0x00, 0, 0, 0, 0]);
+        assert_eq!(sdo_read(bus, 1, 0x1014, 0), 0x8000_0081, "{name}");
+        // The usual checks still answer: read-only, missing object, limits.
+        sdo(bus, [0x22, 0x00, 0x10, 0x00, 0, 0, 0, 0], [0x80, 0x00, 0x10, 0x00, 0x02, 0x00, 0x01, 0x06]);
+        sdo(bus, [0x22, 0x34, 0x12, 0x00, 0, 0, 0, 0], [0x80, 0x34, 0x12, 0x00, 0x00, 0x00, 0x02, 0x06]);
+        sdo(bus, [0x22, 0x17, 0x10, 0x00, 0x05, 0x00, 0, 0], [0x80, 0x17, 0x10, 0x00, 0x30, 0x00, 0x09, 0x06]);
+        assert_eq!(sdo_read(bus, 1, 0x1017, 0), 1000, "{name}");
+    });
+}
+
+#[test]
+fn sized_downloads_of_the_wrong_length_keep_their_cia_301_aborts() {
+    each_encoder(1, |name, bus| {
+        // 1017h is 2 bytes: 4 bytes indicated (23h) is too long, 1 byte (2Fh) too short.
+        sdo(bus, [0x23, 0x17, 0x10, 0x00, 0xE8, 0x03, 0, 0], [0x80, 0x17, 0x10, 0x00, 0x12, 0x00, 0x07, 0x06]);
+        sdo(bus, [0x2F, 0x17, 0x10, 0x00, 0xE8, 0, 0, 0], [0x80, 0x17, 0x10, 0x00, 0x13, 0x00, 0x07, 0x06]);
+        // Segmented with size 3 to the 2-byte 1017h: too long, at the last segment.
+        sdo(bus, [0x21, 0x17, 0x10, 0x00, 0x03, 0, 0, 0], [0x60, 0x17, 0x10, 0x00, 0, 0, 0, 0]);
+        sdo(bus, [0x09, 0xE8, 0x03, 0x00, 0, 0, 0, 0], [0x80, 0x17, 0x10, 0x00, 0x12, 0x00, 0x07, 0x06]);
+        assert_eq!(sdo_read(bus, 1, 0x1017, 0), 0, "{name}: nothing written");
+    });
+}
