@@ -399,3 +399,27 @@ fn sized_downloads_of_the_wrong_length_keep_their_cia_301_aborts() {
         assert_eq!(sdo_read(bus, 1, 0x1017, 0), 0, "{name}: nothing written");
     });
 }
+
+// Point 13: 1005h follows its object table, "rw (writable in the Pre-Operational state only,
+// see chapter 4.1)" (SGH10 4.7.2.5, SGH50 4.7.2.5, WV5800M 5.7.2.5): 08000022h in
+// OPERATIONAL, as 1014h and the PDO COB-IDs already answer.
+
+#[test]
+fn sync_cob_id_is_written_in_pre_operational_only() {
+    each_encoder(1, |name, bus| {
+        nmt(bus, 0x01, 1);
+        sdo(bus, [0x23, 0x05, 0x10, 0x00, 0x85, 0, 0, 0], [0x80, 0x05, 0x10, 0x00, 0x22, 0x00, 0x00, 0x08]);
+        assert_eq!(sdo_read(bus, 1, 0x1005, 0), 0x80, "{name}: unchanged");
+        // As 1014h and 1800h.01 in OPERATIONAL.
+        sdo(bus, [0x23, 0x14, 0x10, 0x00, 0x81, 0, 0, 0x80], [0x80, 0x14, 0x10, 0x00, 0x22, 0x00, 0x00, 0x08]);
+        sdo(bus, [0x23, 0x00, 0x18, 0x01, 0x81, 0x01, 0, 0x80], [0x80, 0x00, 0x18, 0x01, 0x22, 0x00, 0x00, 0x08]);
+        // A SYNC on 80h still drives the synchronous TPDO2.
+        bus.send(Frame::std(0x080, &[]));
+        let tpdo2 = bus.recv().expect("TPDO2 after SYNC");
+        assert_eq!(tpdo2.frame.id, od_core::CanId::Std(0x281), "{name}");
+        bus.expect_silence();
+        nmt(bus, 0x80, 1);
+        sdo(bus, [0x23, 0x05, 0x10, 0x00, 0x85, 0, 0, 0], [0x60, 0x05, 0x10, 0x00, 0, 0, 0, 0]);
+        assert_eq!(sdo_read(bus, 1, 0x1005, 0), 0x85, "{name}");
+    });
+}
