@@ -484,8 +484,11 @@ impl<D: Device> Node<D> {
         // The reloaded PDO configuration and node-ID count from now (filters, caches).
         pdo::reset(&mut self.core, now);
         lss::reset(&mut self.core);
-        emcy::reset(&mut self.core);
         self.device.on_reset(&mut self.core, kind, now);
+        // After the device has re-evaluated its conditions on the reloaded dictionary: the
+        // EMCYs announced after the boot-up are the conditions that still hold, not a stale
+        // code and its 0000h for one the reset removed (issue 13 point 14, D-EMCY-8).
+        emcy::reset(&mut self.core);
     }
 
     /// A reset activates the pending node-ID and bit rate (5F0Ah and alike, set by SDO or

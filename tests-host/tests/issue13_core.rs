@@ -423,3 +423,36 @@ fn sync_cob_id_is_written_in_pre_operational_only() {
         assert_eq!(sdo_read(bus, 1, 0x1005, 0), 0x85, "{name}");
     });
 }
+
+// Point 14: after an NMT reset the EMCYs announce the conditions that still hold (D-EMCY-5),
+// not the ones the reset itself removed: no stale code followed at once by its 0000h.
+
+#[test]
+fn after_a_reset_only_conditions_that_still_hold_are_announced() {
+    each_encoder(1, |name, bus| {
+        // Work area 1 high limit 1 (unsaved): the position is above it, FF15h.
+        let before = sdo_write(bus, 1, 0x6402, 1, 4, 1);
+        assert_eq!(before, [Frame::std(0x081, &emcy(0xFF15, 0x81))], "{name}");
+        // 82h keeps the application parameters: the condition holds and is announced again.
+        nmt(bus, 0x82, 1);
+        bus.expect(0x701, &[0x00]);
+        bus.expect(0x081, &emcy(0xFF15, 0x81));
+        bus.expect_silence();
+        // 81h reloads the stored limit: the condition is gone, nothing is announced.
+        nmt(bus, 0x81, 1);
+        bus.expect(0x701, &[0x00]);
+        bus.advance(10);
+        bus.expect_silence();
+        assert_eq!(sdo_read(bus, 1, 0x1001, 0), 0, "{name}");
+        // Saved, the limit survives 81h, and so does the condition.
+        let before = sdo_write(bus, 1, 0x6402, 1, 4, 1);
+        assert_eq!(before, [Frame::std(0x081, &emcy(0xFF15, 0x81))], "{name}");
+        bus.send(Frame::std(0x601, &SAVE_ALL));
+        bus.expect(0x581, &[0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0]);
+        nmt(bus, 0x81, 1);
+        bus.expect(0x701, &[0x00]);
+        bus.expect(0x081, &emcy(0xFF15, 0x81));
+        bus.advance(10);
+        bus.expect_silence();
+    });
+}
