@@ -358,7 +358,7 @@ fn sgh10_speed_beyond_integer16_raises_ff12h_until_it_fits_again() {
 // Point 12: an expedited download without size indication (22h, CiA 301 §7.2.4.3.3: s = 0,
 // "the data size is not indicated") writes the object's size from bytes 4..; a download whose
 // indicated size differs from the object keeps CiA 301's 06070012h (too long) / 06070013h
-// (too short). No manual's abort table lists them (SGH10 4.3.3, SGH50 4.3.3, WV5800M 5.3.3).
+// (too short). No manual's abort table lists them (SGH10 4.4.1.3, SGH50 4.4.1.3, WV5800M 5.4.1.3).
 
 /// Sends an SDO request to node 1 and expects exactly `answer`.
 #[track_caller]
