@@ -168,7 +168,8 @@ fn history_push(core: &mut Core, code: u16) {
 /// Clears the producer's state after a reset communication: frames not yet sent are dropped,
 /// and every condition still active is announced again after the boot-up message (the
 /// condition persists; the master learns of it in the new session). 1001h keeps its value;
-/// the 1003h history is a log and stays.
+/// the 1003h history is a log and stays. The node calls it after the device's `on_reset`, so
+/// a condition the reset removed (its 0000h dropped here) is not announced at all (D-EMCY-8).
 pub fn reset(core: &mut Core) {
     core.emcy.deferred.clear();
     let register = core.emcy.register();

@@ -9,8 +9,10 @@
 //! The LSS address is 1018h sub 1..4 (vendor-ID, product code, revision number, serial
 //! number). Configure node-ID and configure bit timing set the *pending* values, which are the
 //! dictionary entries hooked [`CoreHook::PendingNodeId`] and [`CoreHook::PendingBitrate`]
-//! (5F0Ah.01/.02 on the SIKO encoders); an NMT reset activates them (`node.rs`), and so does
-//! switching an unconfigured node back to LSS waiting (CiA 305). Activate bit timing switches
+//! (5F0Ah.01/.02 on the SIKO encoders); an NMT reset activates the node-ID (`node.rs`), and so
+//! does switching an unconfigured node back to LSS waiting (CiA 305), but not a bit rate LSS
+//! configured ([`rate_awaits_activation`]): that one waits for activate bit timing or a power
+//! cycle. Activate bit timing switches
 //! to the pending bit rate after delay d1 and, after d2, restarts communication on it with a
 //! boot-up (the manuals). The bit-rate code the pending entry holds is the device's
 //! ([`crate::node::Device::bitrate_codes`]), not the CiA 305 table index.
@@ -459,6 +461,10 @@ pub struct Lss {
     storing: bool,
     /// An activate bit timing under way.
     switch: Option<Switch>,
+    /// The code configure bit timing wrote into the pending bit-rate entry, until activate
+    /// bit timing applies it: an NMT reset does not (CiA 305: activate bit timing or a power
+    /// cycle; issue 13 point 9, D-LSS-15). Kept over NMT resets, gone at power-off.
+    configured_rate: Option<u32>,
 }
 
 impl Lss {
@@ -479,6 +485,7 @@ impl Lss {
             fastscan_pos: Part::Vendor,
             storing: false,
             switch: None,
+            configured_rate: None,
         }
     }
 
@@ -610,6 +617,7 @@ pub fn on_frame(core: &mut Core, frame: &Frame, now: Instant) -> LssEvent {
                 Some(code) => {
                     let pos = core.lss.pending_bitrate;
                     core.od.set(pos, code);
+                    core.lss.configured_rate = Some(code);
                     error::OK
                 }
                 None => error::OUT_OF_RANGE,
@@ -720,6 +728,7 @@ pub fn poll(core: &mut Core, now: Instant) -> LssEvent {
     };
     if !switch.adopted && now >= switch.adopt_at {
         switch.adopted = true;
+        core.lss.configured_rate = None;
         let code = core.od.get(core.lss.pending_bitrate);
         if let Some(rate) = rate_of(core.lss.codes, code) {
             core.bitrate = rate;
@@ -737,6 +746,21 @@ pub fn poll(core: &mut Core, now: Instant) -> LssEvent {
         }
         _ => LssEvent::None,
     }
+}
+
+/// Does the pending bit-rate entry hold a rate that configure bit timing set and activate bit
+/// timing has not applied yet? An NMT reset then leaves the bit rate alone: only activate bit
+/// timing or a power cycle (with the rate stored) applies it (CiA 305, the manuals' 4.6.2.2 /
+/// 5.6.2.2; issue 13 point 9, D-LSS-15). Once the entry holds another code (a 5F0Ah.02 write,
+/// a restore) the reset applies that one, as the manual's "after re-initialization" says.
+pub fn rate_awaits_activation(core: &Core) -> bool {
+    core.lss.configured_rate.is_some_and(|code| code == core.od.get(core.lss.pending_bitrate))
+}
+
+/// An SDO client wrote the pending bit-rate entry (5F0Ah.02): that value is the one the next
+/// reset adopts, even if it equals the code LSS configured (D-LSS-14, D-LSS-15).
+pub fn rate_written(core: &mut Core) {
+    core.lss.configured_rate = None;
 }
 
 /// When the next LSS delay ends.

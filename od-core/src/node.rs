@@ -13,7 +13,7 @@ use crate::guarding::{self, Guarding};
 use crate::heartbeat::{self, Heartbeat};
 use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
-use crate::od::{CoreHook, Entry, GroupMask, Hook, Od};
+use crate::od::{CoreHook, Default as OdDefault, Entry, Group, GroupMask, Hook, Od};
 use crate::pdo::{self, PdoEvent, Pdos};
 use crate::sdo::{ObjectAccess, SdoServer, Written};
 use crate::storage::{self, Image, Loaded, Record, Storage};
@@ -480,11 +480,15 @@ impl<D: Device> Node<D> {
         let device = &self.device;
         storage::reload(&mut self.core, kind, |e, groups| device.restores(e, groups));
         self.activate_pending();
+        sdo_cob_ids(&mut self.core);
         // The reloaded PDO configuration and node-ID count from now (filters, caches).
         pdo::reset(&mut self.core, now);
         lss::reset(&mut self.core);
-        emcy::reset(&mut self.core);
         self.device.on_reset(&mut self.core, kind, now);
+        // After the device has re-evaluated its conditions on the reloaded dictionary: the
+        // EMCYs announced after the boot-up are the conditions that still hold, not a stale
+        // code and its 0000h for one the reset removed (issue 13 point 14, D-EMCY-8).
+        emcy::reset(&mut self.core);
     }
 
     /// A reset activates the pending node-ID and bit rate (5F0Ah and alike, set by SDO or
@@ -496,7 +500,8 @@ impl<D: Device> Node<D> {
             }
         }
         if let Some(rate) = pending_bitrate(&self.device, &self.core.od) {
-            if rate != self.core.bitrate {
+            // A rate LSS configured waits for activate bit timing or a power cycle (D-LSS-15).
+            if rate != self.core.bitrate && !lss::rate_awaits_activation(&self.core) {
                 self.core.bitrate = rate;
                 self.core.out.push(Output::SetBitrate(rate));
             }
@@ -510,6 +515,20 @@ impl<D: Device> Node<D> {
         guarding::reset(&mut self.core);
         pdo::reset(&mut self.core, now);
         storage::boot_up(&mut self.core, now);
+    }
+}
+
+/// Sets the entries that no parameter group stores and whose default is "base + node-ID" to
+/// that default for the active node-ID: 1200h sub 1/2, the read-only SDO COB-IDs ("600h +
+/// Node-ID", "580h + Node-ID"), always name the identifiers the SDO server uses, also after a
+/// reset that activated a new node-ID (issue 13 point 8, D-SDO-7). Stored COB-IDs (1014h,
+/// PDOs) follow the node-ID through `storage::reload` instead.
+fn sdo_cob_ids(core: &mut Core) {
+    let id = core.node_id;
+    for (pos, e) in core.od.table().iter().enumerate() {
+        if e.group == Group::None && matches!(e.default, OdDefault::PlusNodeId(_)) {
+            core.od.set(pos, e.default_value(id));
+        }
     }
 }
 
@@ -538,6 +557,11 @@ impl<D: Device> ObjectAccess for Dict<'_, D> {
         self.core.od.check_read(pos)?;
         emcy::check_read(self.core, index, sub)?;
         Ok(self.core.od.encode(pos, buf))
+    }
+
+    fn write_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort> {
+        let pos = self.core.od.find(index, sub)?;
+        Ok(self.core.od.entry(pos).size())
     }
 
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
@@ -578,6 +602,11 @@ fn core_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Inst
         | CoreHook::PdoMapping => pdo::on_write(core, hook, pos, value, now).map(|()| Written::Done),
         // 5F0Ah and alike hold the pending node-ID and bit-rate code: storing the value (its
         // range is the entry's limits) is the whole write; the next reset activates it.
-        CoreHook::PendingNodeId | CoreHook::PendingBitrate => Ok(Written::Done),
+        CoreHook::PendingNodeId => Ok(Written::Done),
+        CoreHook::PendingBitrate => {
+            // An SDO-written rate is adopted at the next reset, also over an LSS-configured one.
+            lss::rate_written(core);
+            Ok(Written::Done)
+        }
     }
 }

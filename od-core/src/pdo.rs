@@ -539,9 +539,12 @@ fn map_of(index: u16) -> Option<(Dir, usize)> {
     }
 }
 
-/// 1005h: any NMT state with SDO; bit 30 (produce SYNC) cannot be set; bit 31 is not used
-/// (D-PDO-1).
+/// 1005h: PRE-OPERATIONAL only, as the object tables print it (08000022h otherwise; issue 13
+/// point 13, D-PDO-9); bit 30 (produce SYNC) cannot be set; bit 31 is not used (D-PDO-1).
 fn write_sync(core: &mut Core, value: u32) -> Result<(), Abort> {
+    if core.nmt != NmtState::PreOperational {
+        return Err(Abort::DEVICE_STATE);
+    }
     if value & COB_NO_RTR != 0 {
         return Err(Abort::INVALID_VALUE);
     }

@@ -27,6 +27,12 @@ pub trait ObjectAccess {
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort>;
     /// Checks and writes `data` to (index, sub). Nothing changes on `Err`.
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort>;
+    /// Size in bytes of the value at (index, sub), whatever its access: how many bytes an
+    /// expedited download without size indication writes (CiA 301; issue 13 point 12,
+    /// D-SDO-8). By default the readable size.
+    fn write_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort> {
+        self.read_size(index, sub)
+    }
 }
 
 /// The largest value a transfer carries: the longest VISIBLE_STRING of any dictionary.
@@ -192,8 +198,13 @@ impl SdoServer {
         let expedited = cmd & 0x02 != 0;
         let sized = cmd & 0x01 != 0;
         if expedited {
-            // Without a size indication the client sends 4 bytes ("unspecified number").
-            let n = if sized { 4 - ((cmd >> 2) & 0x03) as usize } else { 4 };
+            // Without a size indication (22h) the object's size applies (CiA 301, D-SDO-8);
+            // 4 bytes where the dictionary names none (its write then answers the abort).
+            let n = if sized {
+                4 - ((cmd >> 2) & 0x03) as usize
+            } else {
+                dict.write_size(index, sub).ok().filter(|n| (1..=4).contains(n)).unwrap_or(4)
+            };
             return self.write(index, sub, &req[4..4 + n], now, dict);
         }
         let size = if sized { Some(u32::from_le_bytes([req[4], req[5], req[6], req[7]]) as usize) } else { None };

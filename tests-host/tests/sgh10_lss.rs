@@ -291,14 +291,16 @@ fn activate_bit_timing_is_ignored_in_lss_waiting() {
     lss_silent(&mut bus, [0x15, 0x0A, 0x00, 0, 0, 0, 0, 0]);
     bus.advance(100);
     assert_eq!(bus.node_bitrate(0), Bitrate::K500);
-    // The node is still on the bus: NMT reaches it, and the reset activates the pending rate
-    // (manual: node-ID and baud rate take effect after re-initialisation).
-    nmt(&mut bus, 0x82, 0x01);
-    bus.expect_silence();
-    assert_eq!(bus.node_bitrate(0), Bitrate::K125);
-    bus.set_bitrate(Bitrate::K125);
+    // The node is still on the bus: NMT reaches it, and the reset leaves an LSS-configured
+    // rate pending (CiA 305: activate bit timing or a power cycle applies it; D-LSS-15).
     nmt(&mut bus, 0x82, 0x01);
     bus.expect(0x701, &[0x00]);
+    assert_eq!(bus.node_bitrate(0), Bitrate::K500);
+    // Activate bit timing in configuration state applies it.
+    lss_silent(&mut bus, [0x04, 0x01, 0, 0, 0, 0, 0, 0]);
+    lss_silent(&mut bus, [0x15, 0x0A, 0x00, 0, 0, 0, 0, 0]);
+    bus.advance(10);
+    assert_eq!(bus.node_bitrate(0), Bitrate::K125);
 }
 
 #[test]

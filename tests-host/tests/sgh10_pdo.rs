@@ -432,19 +432,23 @@ fn static_mapping_and_unsupported_parameters() {
 #[test]
 fn sync_cob_id() {
     let (mut bus, _) = sgh10();
-    start(&mut bus);
-    // Writable in OPERATIONAL too (manual §4.1; D-PDO-1); bit 31 is not used.
+    // Writable in PRE-OPERATIONAL only (object table; D-PDO-9); bit 31 is not used.
     sdo_ok(&mut bus, [0x23, 0x05, 0x10, 0x00, 0x85, 0x00, 0x00, 0x80]);
+    start(&mut bus);
     sync(&mut bus);
     bus.expect_silence();
     bus.send(Frame::std(0x085, &[]));
     bus.expect(0x281, &POS_510);
+    // In OPERATIONAL: 08000022h.
+    sdo_abort(&mut bus, [0x23, 0x05, 0x10, 0x00, 0x80, 0x00, 0x00, 0x00], 0x0800_0022);
+    bus.send(Frame::std(0x000, &[0x80, 0x01]));
     // Bit 30 "cannot be set to 1b"; 11-bit identifiers have bits 11..28 clear; restricted.
     sdo_abort(&mut bus, [0x23, 0x05, 0x10, 0x00, 0x80, 0x00, 0x00, 0x40], 0x0609_0030);
     sdo_abort(&mut bus, [0x23, 0x05, 0x10, 0x00, 0x80, 0x08, 0x00, 0x00], 0x0609_0030);
     sdo_abort(&mut bus, [0x23, 0x05, 0x10, 0x00, 0x01, 0x06, 0x00, 0x00], 0x0609_0030);
     // 29-bit SYNC (bit 29).
     sdo_ok(&mut bus, [0x23, 0x05, 0x10, 0x00, 0x80, 0x00, 0x00, 0x20]);
+    start(&mut bus);
     bus.send(Frame::std(0x080, &[]));
     bus.expect_silence();
     bus.send(Frame::new(CanId::Ext(0x80), &[]));

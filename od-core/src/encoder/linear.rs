@@ -51,8 +51,9 @@ pub const SCALING_BIT: u16 = 1 << 2;
 
 /// EMCY FF05h: position value error (sensor fault).
 pub const EMCY_POSITION: Condition = Condition { code: 0xFF05, register: 0x80 };
-/// EMCY FF12h: speed error (SGH10 only): no valid speed since a sensor fault, or a speed
-/// beyond 6030h.01's range.
+/// EMCY FF12h: speed error (SGH10 only): the speed of the last window cannot be represented in
+/// 6030h.01 at the step width 6005h.02 (it saturates). A sensor fault is FF05h alone (issue 13
+/// point 11, D-SGH10-8).
 pub const EMCY_SPEED: Condition = Condition { code: 0xFF12, register: 0x80 };
 /// EMCY FF15h: position error work area 1.
 pub const EMCY_AREA_1: Condition = Condition { code: 0xFF15, register: 0x80 };
@@ -169,8 +170,7 @@ pub struct Linear {
     steps: Option<i64>,
     /// The sensor's last reading was a fault.
     fault: bool,
-    /// No valid speed: a sensor fault since the last complete window, or a window whose
-    /// speed does not fit 6030h.01.
+    /// The last window's speed does not fit 6030h.01 (saturated).
     speed_fault: bool,
     /// The controller is error passive.
     passive: bool,
@@ -300,9 +300,10 @@ impl Linear {
             Err(_) => {
                 self.fault = true;
                 self.steps = None;
-                // No speed either, until a whole integration time of good readings.
+                // No speed either, until a whole integration time of good readings. 6030h.01
+                // reads 0, which it can represent: no speed error (FF05h reports the fault).
                 self.speed.reset();
-                self.speed_fault = true;
+                self.speed_fault = false;
                 od.set_value(0x6030, 1, 0);
             }
         }

@@ -199,19 +199,25 @@ fn cob_id_rules() {
 
 #[test]
 fn sync_cob_id_rules() {
+    // PRE-OPERATIONAL only (D-PDO-9).
     let mut n = node(true);
+    assert_eq!(write(&mut n, 0x1005, 0, 0x0000_0081, at(0)), Err(Abort::DEVICE_STATE));
+    let mut n = node(false);
     assert_eq!(write(&mut n, 0x1005, 0, 0x4000_0080, at(0)), Err(Abort::INVALID_VALUE));
     assert_eq!(write(&mut n, 0x1005, 0, 0x0000_0880, at(0)), Err(Abort::INVALID_VALUE));
     assert_eq!(write(&mut n, 0x1005, 0, 0x0000_0001, at(0)), Err(Abort::INVALID_VALUE));
     let g = n.rx_ids_generation();
-    // Any state with SDO, bit 31 ignored, 29-bit allowed.
+    // Bit 31 ignored, 29-bit allowed.
     assert_eq!(write(&mut n, 0x1005, 0, 0x8000_0081, at(0)), Ok(()));
     assert_ne!(n.rx_ids_generation(), g);
-    assert!(sync(&mut n, at(1)).is_empty());
     assert_eq!(n.core().pdo.sync, Some(CanId::Std(0x81)));
+    n.on_frame(&Frame::std(0, &[0x01, 0x05]), at(0));
+    assert!(sync(&mut n, at(1)).is_empty());
     n.on_frame(&Frame::std(0x81, &[]), at(1));
     assert_eq!(frames(&mut n).len(), 1);
+    n.on_frame(&Frame::std(0, &[0x80, 0x05]), at(1));
     assert_eq!(write(&mut n, 0x1005, 0, 0x2123_4567, at(0)), Ok(()));
+    n.on_frame(&Frame::std(0, &[0x01, 0x05]), at(1));
     n.on_frame(&Frame::new(CanId::Ext(0x0123_4567), &[]), at(1));
     assert_eq!(frames(&mut n).len(), 1);
     assert!(n.rx_ids().contains(&RxId::data(CanId::Ext(0x0123_4567))));

@@ -217,8 +217,8 @@ pub(crate) fn on_restore(core: &mut Core, pos: usize, value: u32) -> Result<Writ
 }
 
 /// The shell finished the store [`request`]ed: on success the saved values become the ones a
-/// reset loads, a pending restore of the saved groups is cancelled (flash now holds these
-/// values), and a power-on fault is cleared (flash now holds a valid image).
+/// reset loads and a power-on fault is cleared (flash now holds a valid image). A pending
+/// restore stays pending: the next reset still loads the defaults (issue 13 point 10, D-STO-10).
 pub(crate) fn store_done(core: &mut Core, ok: bool, now: Instant) {
     let Some(mask) = core.storage.saving.take() else {
         return;
@@ -228,7 +228,6 @@ pub(crate) fn store_done(core: &mut Core, ok: bool, now: Instant) {
     }
     let Core { od, storage, node_id, .. } = core;
     storage.capture(od, *node_id, |e| selected(e, mask));
-    storage.restore.0 &= !mask.0;
     if storage.fault {
         storage.fault = false;
         emcy::set_error(core, EMCY_DATA_SET, 0, false, now);
@@ -237,8 +236,9 @@ pub(crate) fn store_done(core: &mut Core, ok: bool, now: Instant) {
 
 /// Re-initialises the dictionary for an NMT reset: Reset Node loads the stored values of the
 /// communication, application and manufacturer groups, Reset Communication those of the
-/// communication group. Groups marked by 1011h (those of them this reset covers) get their
-/// factory defaults instead, on the entries `restores(entry, groups)` picks (the device's
+/// communication group. Groups marked by 1011h get their factory defaults instead, all of
+/// them whichever reset it is (issue 13 point 10, D-STO-10), on the entries
+/// `restores(entry, groups)` picks (the device's
 /// [`crate::node::Device::restores`]). The pending node-ID and bit rate keep their RAM value
 /// (the reset activates it) unless restored; the 1003h history is kept unless restored.
 pub(crate) fn reload(core: &mut Core, kind: ResetKind, restores: impl Fn(&Entry, GroupMask) -> bool) {
@@ -246,7 +246,8 @@ pub(crate) fn reload(core: &mut Core, kind: ResetKind, restores: impl Fn(&Entry,
         ResetKind::Node => GroupMask::ALL,
         ResetKind::Communication => GroupMask(Group::Comm.bit()),
     };
-    let restore = GroupMask(core.storage.restore.0 & groups.0);
+    // Any reset applies a pending restore to every group 1011h named (D-STO-10).
+    let restore = core.storage.restore;
     let restored = |e: &Entry| restore.0 != 0 && is_user(e) && restores(e, restore);
     let Core { od, storage, node_id, .. } = core;
     // The pending entries first: the "+ node-ID" defaults use the node-ID the reset activates.
@@ -269,7 +270,7 @@ pub(crate) fn reload(core: &mut Core, kind: ResetKind, restores: impl Fn(&Entry,
         };
         od.set(pos, value);
     }
-    storage.restore.0 &= !groups.0;
+    storage.restore = GroupMask::default();
 }
 
 /// After the boot-up message: report a power-on that found the parameter flash unusable.

@@ -191,7 +191,7 @@ fn reset_keeps_the_pending_node_id_and_the_error_history() {
 }
 
 #[test]
-fn restore_then_reset_loads_defaults_of_the_reset_groups_only() {
+fn restore_then_any_reset_loads_defaults_of_every_restored_group() {
     let i = image(&[(0x1017, 0, 100), (0x6002, 0, 5000), (0x5F0A, 1, 9)]);
     let mut node = boot(&Loaded::Image(i));
     set(&mut node, 0x1003, 0, 1);
@@ -202,13 +202,13 @@ fn restore_then_reset_loads_defaults_of_the_reset_groups_only() {
     assert_eq!(core.od.value(0x1017, 0), Some(0));
     assert_eq!(core.od.value(0x1003, 1), Some(0), "restoring comm clears the history");
     assert_eq!(core.od.value(0x1003, 0), Some(core.od.entry(pos(0x1003, 0)).default_value(1)));
-    assert_eq!(core.od.value(0x6002, 0), Some(5000), "82h does not apply application defaults");
-    assert_eq!(core.storage.restore_pending(), GroupMask(Group::App.bit() | Group::Manuf.bit()));
-    reload(core, ResetKind::Node, by_group);
-    assert_eq!(core.od.value(0x6002, 0), Some(10239));
+    // 82h applies the restore of every group 1011h.01 named (D-STO-10).
+    assert_eq!(core.od.value(0x6002, 0), Some(10239), "82h applies application defaults too");
     assert_eq!(core.od.value(0x5F0A, 1), Some(1), "node-ID back to its default");
     assert_eq!(core.od.value(0x1014, 0), Some(0x81));
     assert_eq!(core.storage.restore_pending(), GroupMask(0));
+    reload(core, ResetKind::Node, by_group);
+    assert_eq!(core.od.value(0x6002, 0), Some(5000), "applied: 81h loads the stored value");
     // Nothing was saved: the next reset loads the stored values again.
     core.od.set_value(0x1017, 0, 7);
     reload(core, ResetKind::Communication, by_group);
@@ -216,7 +216,7 @@ fn restore_then_reset_loads_defaults_of_the_reset_groups_only() {
 }
 
 #[test]
-fn a_successful_save_becomes_what_resets_load_and_cancels_a_restore() {
+fn a_successful_save_becomes_what_resets_load_and_keeps_a_restore() {
     let mut node = Node::new(Sgh10, 1, Bitrate::K500);
     set(&mut node, 0x1017, 0, 100);
     set(&mut node, 0x6002, 0, 5000);
@@ -224,11 +224,16 @@ fn a_successful_save_becomes_what_resets_load_and_cancels_a_restore() {
     on_restore(core, pos(0x1011, 1), LOAD).unwrap();
     on_store(core, pos(0x1010, 2), SAVE).unwrap();
     store_done(core, true, Instant::ZERO);
-    assert_eq!(core.storage.restore_pending(), GroupMask(Group::App.bit() | Group::Manuf.bit()));
+    // The save does not cancel the restore (D-STO-10).
+    assert_eq!(core.storage.restore_pending(), GroupMask::ALL);
+    core.od.set_value(0x1017, 0, 7);
+    reload(core, ResetKind::Node, by_group);
+    assert_eq!(core.od.value(0x1017, 0), Some(0), "restored");
+    assert_eq!(core.od.value(0x6002, 0), Some(10239), "restored");
+    // The restore is applied; the save is what the next reset loads.
     core.od.set_value(0x1017, 0, 7);
     reload(core, ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x1017, 0), Some(100), "saved");
-    assert_eq!(core.od.value(0x6002, 0), Some(10239), "restored");
 }
 
 #[test]
