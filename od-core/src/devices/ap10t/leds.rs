@@ -5,7 +5,7 @@
 //! invalid, red unacknowledged, green acknowledged; manual Table 1) or, with value 0, its
 //! control-word bit (11 LED1 green left, 14 LED2 red left, 12 LED3 green right, 13 LED4 red
 //! right; manual 3.3, AP10T A8). An element blinks when it is under control-word control and
-//! control-word bit 15 is set, or when 5F12h sub 6 "FLASH LED" is 1 (D-AP-5). The backlight's
+//! control-word bit 15 is set, or when 5F12h sub 6 "FLASH LED" is 1 (D-AP-6). The backlight's
 //! white and red parts are independent (5F12h sub 7, 8; AP10T A9) and blink together with
 //! sub 9.
 

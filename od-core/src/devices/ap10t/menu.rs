@@ -2,7 +2,7 @@
 //! commands (`CODE` 011100 / 011102 / 011105 factory settings, 200000 diagnosis), and the
 //! Auto-ID prompt ("New ID", 4.6.2).
 //!
-//! The manual gives the texts and the options; the walk between them is D-AP-8 (AP10T A1, A29,
+//! The manual gives the texts and the options; the walk between them is D-AP-9 (AP10T A1, A29,
 //! A43): the parameterization key shows node-ID and baud rate for the key enable time 2005h
 //! sub 2, pressed again within it opens the list (if 2005h sub 1 = 1). In the list the value
 //! input key steps ID -> KBAUD -> CODE, the confirm key opens the parameter, the back key (the
@@ -15,7 +15,7 @@ use crate::time::Instant;
 use super::keys::{Key, KEYMAP};
 use super::screen::{blink_on, Row, Screen, CELLS};
 
-/// Without a key for this long the menu closes without a change (D-AP-8).
+/// Without a key for this long the menu closes without a change (D-AP-9).
 pub const MENU_TIMEOUT_MS: u64 = 60_000;
 
 /// What a confirmed menu entry asks of the device. The menu changes no parameter itself.
@@ -102,7 +102,7 @@ pub const fn baud_text(code: u8) -> &'static str {
     }
 }
 
-/// One line of the diagnosis list (manual 3.8.2; D-AP-8): an error and how often it occurred.
+/// One line of the diagnosis list (manual 3.8.2; D-AP-9): an error and how often it occurred.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct DiagEntry {
     /// The error's EMCY code (its type, shown in hex on the lower row).

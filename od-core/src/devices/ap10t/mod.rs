@@ -13,7 +13,7 @@
 //! - [`menu`]: ID / KBAUD / CODE, diagnosis, "New ID".
 //! - [`panel`]: all of it together, [`Panel`].
 //!
-//! Time is an argument everywhere; every blinking thing runs on one clock from
+//! Time is an argument everywhere; every blinking thing runs on one clock (D-AP-6) from
 //! `Instant::ZERO` ([`screen::BLINK_PERIOD_MS`]). The decisions are D-AP-1 … in
 //! `docs/decisions.md`, section "AP10T".
 

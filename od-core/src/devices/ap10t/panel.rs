@@ -197,7 +197,7 @@ impl Panel {
     }
 
     /// A key at the top level: acknowledgement first, where the key acknowledges and a set
-    /// point waits for it (D-AP-6), else the parameterization key shows node-ID and baud rate.
+    /// point waits for it (D-AP-8), else the parameterization key shows node-ID and baud rate.
     fn top_level(&mut self, key: Key, now: Instant) -> (Mode, Option<Effect>) {
         let p = &self.params;
         if p.ack_keys.acknowledges(key) && p.enabled(key) && self.sps.acknowledge() {

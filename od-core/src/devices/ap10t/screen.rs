@@ -3,7 +3,7 @@
 //! a row left to right, its decimal point after it). A test reads a row as text
 //! ([`Row::text`]); the LCD driver takes the cells ([`Screen::physical`] for the 180° mount).
 //!
-//! Set point rendering (manual 3.2, 3.2.1; D-AP-1, D-AP-2): numbers right-aligned with 5F11h
+//! Set point rendering (manual 3.2, 3.2.1; D-AP-1, D-AP-2, D-AP-4): numbers right-aligned with 5F11h
 //! decimal places (the point is a segment, not a cell; leading zeros as "0.05"), "FULLL" outside
 //! -19999..=99999, in the extended range (control word bit 3, acknowledged set points only)
 //! values down to -999999, the sign and the highest digit alternating where both do not fit;
@@ -184,7 +184,7 @@ pub fn no_set_point() -> Row {
     Row::right("---")
 }
 
-/// A set point as text, six ASCII characters from byte 0 (D-AP-2): a NUL or any byte outside
+/// A set point as text, six ASCII characters from byte 0 (D-AP-5): a NUL or any byte outside
 /// the printable range is a blank, a '.' lights the point of the character before it.
 pub fn ascii(bytes: &[u8; 6]) -> Row {
     let mut clean = [b' '; 6];
