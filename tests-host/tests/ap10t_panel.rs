@@ -466,3 +466,82 @@ fn backlight_flashing_through_the_panel() {
     assert_eq!(p.view(ms(600)).backlight, Backlight { white: false, red: false });
     assert_eq!(p.next_change(ms(600)), Some(ms(1000)));
 }
+
+/// Factory values of the panel's objects as `shared/spec/AP10T.od.csv` lists them.
+const FACTORY_OBJECTS: [(u16, u8, u32); 19] = [
+    (0x2003, 0, 1),
+    (0x2004, 0, 1),
+    (0x2005, 1, 1),
+    (0x2005, 2, 5),
+    (0x5F0A, 1, 0x7D),
+    (0x5F0A, 3, 0),
+    (0x5F0B, 0, 0),
+    (0x5F11, 0, 0),
+    (0x5F12, 1, 0),
+    (0x5F12, 2, 1),
+    (0x5F12, 3, 1),
+    (0x5F12, 4, 1),
+    (0x5F12, 5, 1),
+    (0x5F12, 6, 0),
+    (0x5F12, 7, 1),
+    (0x5F12, 8, 1),
+    (0x5F12, 9, 0),
+    (0x5F1C, 0, 0),
+    (0x5F1C, 1, 0),
+];
+
+#[test]
+fn panel_parameters_by_object_with_factory_values_and_ranges() {
+    use od_core::devices::ap10t::panel::{ParamError, PANEL_OBJECTS};
+    let p = Params::FACTORY;
+    for (i, &(index, sub, value)) in FACTORY_OBJECTS.iter().enumerate() {
+        assert_eq!(PANEL_OBJECTS[i], (index, sub));
+        assert_eq!(p.read(index, sub), Some(value), "{index:04X}.{sub}");
+    }
+    // Every object: its maximum is taken and read back, one above is refused.
+    let max = |index: u16, sub: u8| match (index, sub) {
+        (0x2005, 2) => 60,
+        (0x5F0A, 1) => 0x7F,
+        (0x5F0A, 3) => 5,
+        (0x5F11, 0) => 4,
+        (0x5F1C, 0) => 2,
+        _ => 1,
+    };
+    for (index, sub) in PANEL_OBJECTS {
+        let mut q = Params::FACTORY;
+        let m = max(index, sub);
+        assert_eq!(q.write(index, sub, m), Ok(()));
+        assert_eq!(q.read(index, sub), Some(m));
+        assert_eq!(q.write(index, sub, m + 1), Err(ParamError::OutOfRange), "{index:04X}.{sub}");
+        assert_eq!(q.read(index, sub), Some(m), "unchanged after a refused write");
+    }
+    let mut q = Params::FACTORY;
+    assert_eq!(q.write(0x2005, 2, 0), Err(ParamError::OutOfRange));
+    assert_eq!(q.write(0x5F0A, 1, 0), Err(ParamError::OutOfRange));
+    assert_eq!(q.write(0x5F19, 0, 0), Err(ParamError::NotAPanelParameter));
+    assert_eq!(q.read(0x5F0A, 2), None, "Auto-ID is an event, not a panel parameter");
+}
+
+/// Index, sub-index and value of an expedited SDO frame (bytes 1-2, 3, 4-7).
+fn sdo_object(frame: [u8; 8]) -> (u16, u8, u32) {
+    (u16::from_le_bytes([frame[1], frame[2]]), frame[3], u32::from_le_bytes([frame[4], frame[5], frame[6], frame[7]]))
+}
+
+#[test]
+fn manual_sdo_examples_on_the_display() {
+    // Manual 4.4.3 (digest E3b): 5F11h reads 2 (4F 11 5F 00 02 ..): two decimal places.
+    let mut p = Panel::new(Params::FACTORY);
+    let (index, sub, value) = sdo_object([0x4F, 0x11, 0x5F, 0x00, 0x02, 0x00, 0x00, 0x00]);
+    p.params.write(index, sub, value).unwrap();
+    p.receive(Which::Sp1, &D23);
+    assert_eq!(rows(&p, 0)[0], "123.45");
+    // Manual 4.4.3 (E4a): 2F 12 5F 01 01 00 00 00 turns the display by 180°.
+    let (index, sub, value) = sdo_object([0x2F, 0x12, 0x5F, 0x01, 0x01, 0x00, 0x00, 0x00]);
+    assert_eq!((index, sub, value), (0x5F12, 1, 1));
+    p.params.write(index, sub, value).unwrap();
+    let v = p.view(ms(0));
+    assert!(v.screen.rotated);
+    assert_eq!(v.screen.physical()[1].map(|c| c.ch), *b"54321 ");
+    // The point after "3" (logical cell 3) is lit on physical digit 1.
+    assert_eq!(v.screen.physical()[1].map(|c| c.dp), [false, true, false, false, false, false]);
+}

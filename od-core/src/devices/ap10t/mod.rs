@@ -27,7 +27,7 @@ pub mod words;
 
 pub use keys::{Key, KeySet, KEYMAP};
 pub use menu::{DiagEntry, Effect, Mode, ResetScope};
-pub use panel::{Panel, Params, View};
+pub use panel::{Panel, ParamError, Params, View};
 pub use screen::{Row, Screen};
 pub use setpoint::{SetPoint, SetPoints, Which};
 pub use words::{ControlWord, StatusWord};

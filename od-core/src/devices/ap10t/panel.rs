@@ -81,6 +81,97 @@ impl Params {
     }
 }
 
+/// Why [`Params::write`] refused a value.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum ParamError {
+    /// The object is none of the panel's parameters.
+    NotAPanelParameter,
+    /// The value is outside the object's range (the dictionary answers 06090030h first).
+    OutOfRange,
+}
+
+/// The objects [`Params`] carries, as (index, sub-index).
+pub const PANEL_OBJECTS: [(u16, u8); 19] = [
+    (0x2003, 0),
+    (0x2004, 0),
+    (0x2005, 1),
+    (0x2005, 2),
+    (0x5F0A, 1),
+    (0x5F0A, 3),
+    (0x5F0B, 0),
+    (0x5F11, 0),
+    (0x5F12, 1),
+    (0x5F12, 2),
+    (0x5F12, 3),
+    (0x5F12, 4),
+    (0x5F12, 5),
+    (0x5F12, 6),
+    (0x5F12, 7),
+    (0x5F12, 8),
+    (0x5F12, 9),
+    (0x5F1C, 0),
+    (0x5F1C, 1),
+];
+
+impl Params {
+    /// The value of a panel parameter object as the dictionary holds it (`None`: not one).
+    pub fn read(&self, index: u16, sub: u8) -> Option<u32> {
+        let b = |f: bool| Some(f as u32);
+        match (index, sub) {
+            (0x2003, 0) => b(self.key_enable_2003),
+            (0x2004, 0) => b(self.key_enable_2004),
+            (0x2005, 1) => b(self.config_enable),
+            (0x2005, 2) => Some(self.config_delay_s as u32),
+            (0x5F0A, 1) => Some(self.node_id as u32),
+            (0x5F0A, 3) => Some(self.baud as u32),
+            (0x5F0B, 0) => b(self.row2_off),
+            (0x5F11, 0) => Some(self.decimals as u32),
+            (0x5F12, 1) => b(self.rotated),
+            (0x5F12, s @ 2..=5) => b(self.lights.ack_dependent[s as usize - 2]),
+            (0x5F12, 6) => b(self.lights.flash_leds),
+            (0x5F12, 7) => b(self.lights.backlight_white),
+            (0x5F12, 8) => b(self.lights.backlight_red),
+            (0x5F12, 9) => b(self.lights.flash_backlight),
+            (0x5F1C, 0) => Some(self.ack_keys.raw() as u32),
+            (0x5F1C, 1) => b(self.steady_unacknowledged),
+            _ => None,
+        }
+    }
+
+    /// Takes a value written to a panel parameter object (by SDO, a restore, a load at
+    /// power-up), checked against the object's range.
+    pub fn write(&mut self, index: u16, sub: u8, value: u32) -> Result<(), ParamError> {
+        let flag = |v: u32| if v <= 1 { Ok(v == 1) } else { Err(ParamError::OutOfRange) };
+        let within = |v: u32, lo: u32, hi: u32| {
+            if (lo..=hi).contains(&v) {
+                Ok(v as u8)
+            } else {
+                Err(ParamError::OutOfRange)
+            }
+        };
+        match (index, sub) {
+            (0x2003, 0) => self.key_enable_2003 = flag(value)?,
+            (0x2004, 0) => self.key_enable_2004 = flag(value)?,
+            (0x2005, 1) => self.config_enable = flag(value)?,
+            (0x2005, 2) => self.config_delay_s = within(value, 1, 60)?,
+            (0x5F0A, 1) => self.node_id = within(value, 1, 0x7F)?,
+            (0x5F0A, 3) => self.baud = within(value, 0, 5)?,
+            (0x5F0B, 0) => self.row2_off = flag(value)?,
+            (0x5F11, 0) => self.decimals = within(value, 0, 4)?,
+            (0x5F12, 1) => self.rotated = flag(value)?,
+            (0x5F12, s @ 2..=5) => self.lights.ack_dependent[s as usize - 2] = flag(value)?,
+            (0x5F12, 6) => self.lights.flash_leds = flag(value)?,
+            (0x5F12, 7) => self.lights.backlight_white = flag(value)?,
+            (0x5F12, 8) => self.lights.backlight_red = flag(value)?,
+            (0x5F12, 9) => self.lights.flash_backlight = flag(value)?,
+            (0x5F1C, 0) => self.ack_keys = AckKeys::from_raw(within(value, 0, 2)?).ok_or(ParamError::OutOfRange)?,
+            (0x5F1C, 1) => self.steady_unacknowledged = flag(value)?,
+            _ => return Err(ParamError::NotAPanelParameter),
+        }
+        Ok(())
+    }
+}
+
 impl Default for Params {
     fn default() -> Self {
         Params::FACTORY
