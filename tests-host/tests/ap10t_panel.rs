@@ -545,3 +545,91 @@ fn manual_sdo_examples_on_the_display() {
     // The point after "3" (logical cell 3) is lit on physical digit 1.
     assert_eq!(v.screen.physical()[1].map(|c| c.dp), [false, true, false, false, false, false]);
 }
+
+mod properties {
+    use super::*;
+    use od_core::devices::ap10t::screen::{set_point_row, RowStyle};
+    use od_core::devices::ap10t::SetPoint;
+    use proptest::prelude::*;
+
+    fn key() -> impl Strategy<Value = Key> {
+        prop_oneof![Just(Key::Front), Just(Key::Left), Just(Key::Star), Just(Key::Up)]
+    }
+
+    /// One input to the panel.
+    #[derive(Clone, Debug)]
+    enum Input {
+        Rpdo(bool, [u8; 8]),
+        Tap(Key),
+        Wait(u64),
+        AutoId(u8),
+    }
+
+    fn input() -> impl Strategy<Value = Input> {
+        prop_oneof![
+            (any::<bool>(), any::<[u8; 8]>()).prop_map(|(w, d)| Input::Rpdo(w, d)),
+            key().prop_map(Input::Tap),
+            (0u64..70_000).prop_map(Input::Wait),
+            any::<u8>().prop_map(Input::AutoId),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
+
+        /// A number in the standard range reads back as itself; nothing panics and no row is
+        /// longer than six cells anywhere in the i32 range.
+        #[test]
+        fn numbers_read_back(v in any::<i32>(), decimals in 0u8..=4, extended: bool, ack: bool, t in 0u64..5_000) {
+            let b = v.to_le_bytes();
+            let sp = SetPoint { bytes: [b[0], b[1], b[2], b[3], 0, 0], ascii: false, valid: true, acknowledged: ack };
+            let style = RowStyle { decimals, extended, steady_unacknowledged: true };
+            let row = set_point_row(&sp, style, ms(t));
+            let text = row.text();
+            prop_assert!(text.chars().filter(|&c| c != '.').count() <= 6);
+            if (-19_999..=99_999).contains(&v) {
+                let digits: String = text.chars().filter(|&c| c != '.').collect();
+                prop_assert_eq!(digits.parse::<i32>().unwrap(), v);
+                prop_assert_eq!(text.contains('.'), decimals > 0);
+            } else if !(extended && ack && (-999_999..=-20_000).contains(&v)) {
+                prop_assert_eq!(text.as_str(), "FULLL");
+            }
+        }
+
+        /// The view stays as it is until `next_change` (the shell may sleep until then), and
+        /// the status word's acknowledgement bits never claim an invalid set point.
+        #[test]
+        fn view_is_constant_until_next_change(inputs in proptest::collection::vec(input(), 1..40), params_bits: u32) {
+            let mut params = Params::FACTORY;
+            for (i, (index, sub)) in od_core::devices::ap10t::panel::PANEL_OBJECTS.iter().enumerate() {
+                if *index == 0x5F12 || *index == 0x5F0B || *index == 0x5F1C && *sub == 1 {
+                    let _ = params.write(*index, *sub, params_bits >> i & 1);
+                }
+            }
+            let _ = params.write(0x5F11, 0, params_bits >> 24 & 7);
+            let _ = params.write(0x5F1C, 0, params_bits >> 28 & 3);
+            let mut p = Panel::new(params);
+            p.power_up(ms(0));
+            let mut now = 0u64;
+            for inp in inputs {
+                match inp {
+                    Input::Rpdo(w, d) => p.receive(if w { Which::Sp1 } else { Which::Sp2 }, &d),
+                    Input::Tap(k) => { tap(&mut p, k, now); }
+                    Input::Wait(dt) => now += dt,
+                    Input::AutoId(id) => { p.start_auto_id(id); }
+                }
+                let sw = p.status_word();
+                prop_assert!(!sw.sp1_ack || sw.sp1_valid);
+                prop_assert!(!sw.sp2_ack || sw.sp2_valid);
+                let view = p.view(ms(now));
+                let until = p.next_change(ms(now)).map(|i| i.as_millis()).unwrap_or(now + 3_000);
+                prop_assert!(until > now);
+                for t in [now + 1, (now + until) / 2, until - 1] {
+                    if t > now && t < until {
+                        prop_assert_eq!(p.view(ms(t)), view, "at {} (now {}, next {})", t, now, until);
+                    }
+                }
+            }
+        }
+    }
+}
