@@ -633,3 +633,16 @@ mod properties {
         }
     }
 }
+
+#[test]
+fn view_as_one_line() {
+    let mut p = Panel::new(Params::FACTORY);
+    p.receive(Which::Sp1, &D20);
+    assert_eq!(p.view(ms(0)).to_string(), "[ 12345|   ---] LED red/off light white+red");
+    assert_eq!(p.view(ms(500)).to_string(), "[      |   ---] LED red/off light white+red");
+    p.params.write(0x5F12, 1, 1).unwrap();
+    p.params.write(0x5F12, 8, 0).unwrap();
+    p.params.write(0x5F11, 0, 1).unwrap();
+    tap(&mut p, Key::Front, 0);
+    assert_eq!(p.view(ms(0)).to_string(), "[ 1234.5|   ---] LED green/off light white rotated");
+}

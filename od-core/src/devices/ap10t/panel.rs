@@ -189,6 +189,36 @@ pub struct View {
     pub backlight: Backlight,
 }
 
+impl core::fmt::Display for View {
+    /// One line for a log or a live view: both rows cell by cell (as read, blanks kept, a '.'
+    /// after a lit point), the LEDs and the backlight, e.g.
+    /// `[ 12345|   ---] LED red/off light white+red`.
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let led = |b: Bicolour| match (b.green, b.red) {
+            (false, false) => "off",
+            (true, false) => "green",
+            (false, true) => "red",
+            (true, true) => "orange",
+        };
+        let light = match (self.backlight.white, self.backlight.red) {
+            (false, false) => "off",
+            (true, false) => "white",
+            (false, true) => "red",
+            (true, true) => "white+red",
+        };
+        write!(
+            f,
+            "[{}|{}] LED {}/{} light {}{}",
+            self.screen.rows[0].cells_text(),
+            self.screen.rows[1].cells_text(),
+            led(self.leds.left),
+            led(self.leds.right),
+            light,
+            if self.screen.rotated { " rotated" } else { "" }
+        )
+    }
+}
+
 /// Set points, keys and menu of one AP10T.
 #[derive(Clone, PartialEq, Eq, Debug)]
 pub struct Panel {
