@@ -13,7 +13,7 @@
 use crate::time::Instant;
 
 use super::keys::{Key, KEYMAP};
-use super::screen::{blink_on, Row, Screen, CELLS};
+use super::screen::{blink_on, Row, CELLS};
 
 /// Without a key for this long the menu closes without a change (D-AP-9).
 pub const MENU_TIMEOUT_MS: u64 = 60_000;
@@ -198,8 +198,6 @@ pub struct MenuContext {
     pub baud: u8,
     /// 2005h sub 1: configuration by keyboard enabled.
     pub config_enable: bool,
-    /// 2005h sub 2: key enable time in seconds.
-    pub config_delay_s: u8,
 }
 
 /// Label on the left, value on the right (the value wins where they overlap).
@@ -362,16 +360,11 @@ impl Mode {
     }
 }
 
-/// The screen of a menu mode, with the orientation.
-pub fn menu_screen(mode: Mode, now: Instant, ctx: &MenuContext, diag: &[DiagEntry], rotated: bool) -> Screen {
-    Screen { rows: mode.screen(now, ctx, diag), rotated }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    const CTX: MenuContext = MenuContext { node_id: 0x7D, baud: 0, config_enable: true, config_delay_s: 5 };
+    const CTX: MenuContext = MenuContext { node_id: 0x7D, baud: 0, config_enable: true };
     const T: Instant = Instant::from_millis(100);
 
     fn texts(m: Mode, now: Instant) -> [heapless::String<12>; 2] {

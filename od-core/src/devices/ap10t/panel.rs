@@ -58,12 +58,7 @@ impl Params {
     };
 
     fn menu(&self) -> MenuContext {
-        MenuContext {
-            node_id: self.node_id,
-            baud: self.baud,
-            config_enable: self.config_enable,
-            config_delay_s: self.config_delay_s,
-        }
+        MenuContext { node_id: self.node_id, baud: self.baud, config_enable: self.config_enable }
     }
 
     fn style(&self, sps: &SetPoints) -> RowStyle {
