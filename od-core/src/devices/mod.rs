@@ -1,5 +1,6 @@
 //! The devices' dictionaries and behaviour, one module per product.
 
+pub mod ap10t;
 pub mod comm;
 pub mod sgh10;
 pub mod sgh50;
