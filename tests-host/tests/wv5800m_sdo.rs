@@ -144,3 +144,18 @@ fn calibration_survives_a_power_cycle_only_when_saved() {
     assert_eq!(sdo_read(&mut bus, 1, 0x6004, 0), 40_100);
     assert_eq!(sdo_read(&mut bus, 1, 0x6509, 0), 0);
 }
+
+/// 2002h = 0, its printed default, is accepted and calibrates nothing (D-WV-4): a configuration
+/// tool that writes an EDS's DefaultValue back gets no abort and the position stays.
+#[test]
+fn calibrate_0_is_accepted_and_changes_nothing() {
+    let (mut bus, _) = wv(MT12, 1000);
+    let before = value(bus.station(0).core(), 0x6004, 0);
+    let calibration = value(bus.station(0).core(), 0x6509, 0);
+    sdo_write(&mut bus, 1, 0x2002, 0, 1, 0);
+    assert_eq!(value(bus.station(0).core(), 0x6004, 0), before);
+    assert_eq!(value(bus.station(0).core(), 0x6509, 0), calibration);
+    sdo_write_abort(&mut bus, 1, 0x2002, 0, 1, 2, 0x0609_0030);
+    sdo_write(&mut bus, 1, 0x2002, 0, 1, 1);
+    assert_eq!(value(bus.station(0).core(), 0x6004, 0), 0);
+}
