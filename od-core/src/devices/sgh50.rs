@@ -133,6 +133,7 @@ const fn table(node_id: u8) -> [Entry; ENTRIES] {
             .group(MANUF)
             .hook(core(CoreHook::PendingBitrate)),
         Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, 0x0004)
+            .range(0x0004, 0x000C)
             .group(APP)
             .hook(dev(hooks::OPERATING_PARAMETERS)),
         Entry::var(0x6002, "Total number of measuring steps", Unsigned32, Rw, 73840).group(APP),
