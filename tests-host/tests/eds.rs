@@ -231,3 +231,13 @@ fn every_enforced_limit_is_declared() {
     let problems: Vec<String> = devices().iter().flat_map(probe_part).collect();
     assert!(problems.is_empty(), "{} problems:\n{}", problems.len(), problems.join("\n"));
 }
+
+/// 1018h sub 4, the factory serial number, defaults alike on every device (D-LSS-13): 1, as the
+/// SGH10 and WV5800M manuals print it (the SGH50's prints none).
+#[test]
+fn serial_number_defaults_agree() {
+    for EdsDevice { info, table, .. } in devices() {
+        let serial = table.iter().find(|e| (e.index, e.sub) == (0x1018, 4)).expect("1018h sub 4");
+        assert_eq!(serial.default, Default::Value(1), "{}", info.file_name);
+    }
+}

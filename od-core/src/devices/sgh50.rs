@@ -90,7 +90,7 @@ const fn table(node_id: u8) -> [Entry; ENTRIES] {
         Entry::member(0x1018, 1, "Vendor-ID", Unsigned32, Ro, 0x0000_0195),
         Entry::member(0x1018, 2, "Product code", Unsigned32, Ro, 0xFFFF_FFFF),
         Entry::member(0x1018, 3, "Revision number", Unsigned32, Ro, 0xFFFF_FFFF),
-        Entry::member(0x1018, 4, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
+        Entry::member(0x1018, 4, "Serial number", Unsigned32, Ro, 1).group(Group::Factory),
         Entry::record(0x1200, "SDO server parameter", 2, Const),
         Entry::member(0x1200, 1, "COB-ID client to server (rx)", Unsigned32, Ro, 0).plus_node_id(0x600),
         Entry::member(0x1200, 2, "COB-ID server to client (tx)", Unsigned32, Ro, 0).plus_node_id(0x580),
