@@ -164,9 +164,9 @@ fn candidates(dtype: DataType, limits: Option<(i64, i64)>) -> Vec<i64> {
     let mut v: Vec<i64> = if max - min <= 255 {
         (min..=max).collect()
     } else {
-        let step = if max - min <= 65535 { 127 } else { 0x0133_3333 };
+        let (step, edge) = if max - min <= 65535 { (127, 300) } else { (0x0133_3333, 16) };
         let mut v: Vec<i64> = (min..=max).step_by(step).collect();
-        v.extend((0..=300).chain(max - 300..=max).chain(min..min + 300).filter(|x| (min..=max).contains(x)));
+        v.extend((0..=edge).chain(max - edge..=max).chain(min..min + edge).filter(|x| (min..=max).contains(x)));
         v
     };
     if let Some((lo, hi)) = limits {
