@@ -148,3 +148,25 @@ fn n7_heartbeat_of_the_sgh50() {
     bus.advance(100);
     bus.expect(0x701, &[0x05]);
 }
+
+/// 5F09h switches the internal bus termination at once (D-SGH50-5): the board follows
+/// `sgh50::bus_termination`. Unsaved, it is off again after a Reset Node; saved, it stays on.
+#[test]
+fn bus_termination_follows_5f09h() {
+    let (mut bus, _) = sgh50(Variant::Single, 0);
+    assert!(!sgh50::bus_termination(bus.station(0).core()));
+    sdo_write(&mut bus, 1, 0x5F09, 0, 1, 1);
+    assert!(sgh50::bus_termination(bus.station(0).core()));
+    sdo_write_abort(&mut bus, 1, 0x5F09, 0, 1, 2, 0x0609_0030);
+    assert!(sgh50::bus_termination(bus.station(0).core()));
+    bus.send(Frame::std(0x000, &[0x81, 0x01]));
+    bus.expect(0x701, &[0x00]);
+    assert!(!sgh50::bus_termination(bus.station(0).core()), "not saved: off after Reset Node");
+    sdo_write(&mut bus, 1, 0x5F09, 0, 1, 1);
+    sdo_write(&mut bus, 1, 0x1010, 4, 4, 0x6576_6173);
+    bus.send(Frame::std(0x000, &[0x81, 0x01]));
+    bus.expect(0x701, &[0x00]);
+    assert!(sgh50::bus_termination(bus.station(0).core()), "saved: on after Reset Node");
+    sdo_write(&mut bus, 1, 0x5F09, 0, 1, 0);
+    assert!(!sgh50::bus_termination(bus.station(0).core()));
+}

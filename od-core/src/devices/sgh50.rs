@@ -200,6 +200,14 @@ pub static TABLE: &[Entry] = &TABLE_1;
 /// The dictionary of the redundant version's second encoder: 5F0Ah.01 defaults to 2.
 pub static TABLE_SECOND: &[Entry] = &TABLE_2;
 
+/// Is the internal CAN bus termination switched on (D-SGH50-5)? 5F09h = 1 switches it on, 0
+/// off, at once (the SDO write is the switch), and the value the node powers on or resets with
+/// (stored, or the default 0) is what the board applies from then on. The board drives its
+/// termination switch from this at every turn of its loop.
+pub fn bus_termination(core: &Core) -> bool {
+    core.od.value(0x5F09, 0) == Some(1)
+}
+
 /// The SGH50's measuring range and timing.
 pub const SPEC: LinearSpec = LinearSpec {
     // 6002h: 73840 steps of 0.1 mm; the calibration range is ±73839.
