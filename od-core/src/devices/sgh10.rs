@@ -55,6 +55,7 @@ static ROWS: [Entry; ENTRIES] = comm::join(&[
     comm::node_id_and_bitrate(&NODE).as_slice(),
     &[
         Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, 0x0004)
+            .range(0x0004, 0x000C)
             .group(APP)
             .hook(dev(hooks::OPERATING_PARAMETERS)),
         Entry::var(0x6002, "Total measuring range in measuring units", Unsigned32, Rw, 10239).group(APP),

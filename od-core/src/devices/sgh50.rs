@@ -45,7 +45,7 @@ const PROFILE: Profile = Profile {
     device_name: Some("SGH50"),
     hardware_version: Some("V100"),
     software_version: "V100",
-    identity: Identity::siko(Serial::Factory(0)),
+    identity: Identity::siko(Serial::Factory(1)),
     heads: Const,
     canopen: Some(CanOpen {
         rpdos: &[],
@@ -69,6 +69,7 @@ const fn table(node_id: u8) -> [Entry; ENTRIES] {
         comm::node_id_and_bitrate(&NodeIdAndBitrate::new(node_id, (1, 127), DEFAULT_BITRATE_CODE, (1, 7))).as_slice(),
         &[
             Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, 0x0004)
+                .range(0x0004, 0x000C)
                 .group(APP)
                 .hook(dev(hooks::OPERATING_PARAMETERS)),
             Entry::var(0x6002, "Total number of measuring steps", Unsigned32, Rw, 73840).group(APP),
@@ -137,6 +138,14 @@ static TABLE_2: [Entry; ENTRIES] = table(SECOND_NODE_ID);
 pub static TABLE: &[Entry] = &TABLE_1;
 /// The dictionary of the redundant version's second encoder: 5F0Ah.01 defaults to 2.
 pub static TABLE_SECOND: &[Entry] = &TABLE_2;
+
+/// Is the internal CAN bus termination switched on (D-SGH50-5)? 5F09h = 1 switches it on, 0
+/// off, at once (the SDO write is the switch), and the value the node powers on or resets with
+/// (stored, or the default 0) is what the board applies from then on. The board drives its
+/// termination switch from this at every turn of its loop.
+pub fn bus_termination(core: &Core) -> bool {
+    core.od.value(0x5F09, 0) == Some(1)
+}
 
 /// The SGH50's measuring range and timing.
 pub const SPEC: LinearSpec = LinearSpec {

@@ -163,7 +163,7 @@ const fn table(model: Model, turns: Turns) -> [Entry; ENTRIES] {
                 .range(-r, r - 1)
                 .group(MANUF)
                 .hook(dev(hooks::OFFSET)),
-            Entry::var(0x2002, "Calibrate encoder value", Unsigned8, Wo, 0).range(1, 1).hook(dev(hooks::CALIBRATE)),
+            Entry::var(0x2002, "Calibrate encoder value", Unsigned8, Wo, 0).range(0, 1).hook(dev(hooks::CALIBRATE)),
             Entry::var(0x2003, "Limit speed low", Integer16, Rw, 0).group(MANUF).hook(dev(hooks::LIMIT_SPEED)),
             Entry::var(0x2004, "Limit speed high", Integer16, Rw, 0).group(MANUF).hook(dev(hooks::LIMIT_SPEED)),
             Entry::var(0x5000, "Diagnosis CAN bus error", Unsigned32, Ro, 0),
@@ -171,6 +171,7 @@ const fn table(model: Model, turns: Turns) -> [Entry; ENTRIES] {
         comm::node_id_and_bitrate(&NODE).as_slice(),
         &[
             Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, SCALING_BIT as u32)
+                .range(SCALING_BIT as i64, (SCALING_BIT | DIRECTION_BIT) as i64)
                 .group(APP)
                 .hook(dev(hooks::OPERATING_PARAMETERS)),
             Entry::var(0x6001, "Measuring steps per revolution", Unsigned32, Rw, PHYSICAL_STEPS)
@@ -178,7 +179,7 @@ const fn table(model: Model, turns: Turns) -> [Entry; ENTRIES] {
                 .group(APP)
                 .hook(dev(hooks::APU)),
             Entry::var(0x6002, "Total measuring range in measuring steps", Unsigned32, Rw, r as u32)
-                .range(1, max_pos + 1)
+                .range(n, max_pos + 1)
                 .group(APP)
                 .hook(dev(hooks::TOTAL_RANGE)),
             Entry::var(0x6003, "Preset value", Integer32, Rw, 0)
@@ -494,10 +495,12 @@ impl Device for Wv5800m {
                 }
             }
             hooks::OFFSET | hooks::LIMIT_SPEED => {}
-            hooks::CALIBRATE => {
+            // 1 calibrates; 0, the printed default, does nothing (D-WV-4).
+            hooks::CALIBRATE if value == 1 => {
                 let raw = self.raw.ok_or(Abort::NO_DATA)?;
                 core.od.set_value(0x6509, 0, before.calibrated_at(raw));
             }
+            hooks::CALIBRATE => {}
             hooks::CYCLE_TIMER => {
                 let timer = core.od.pos(0x1800, 5).ok_or(Abort::GENERAL)?;
                 pdo::on_write(core, CoreHook::PdoEventTimer, timer, value, now)?;
