@@ -202,7 +202,7 @@ fn print_table(kinds: &[&Kind], figures: &[Figure], only: Option<Workload>, quic
                 None => "-".into(),
             })
             .collect();
-        println!("| {} {} | {} | < {} |", w.name(), w.what(), cells.join(" | "), thousands(w.goal()));
+        println!("| {} {} | {} | ≤ {} |", w.name(), w.what(), cells.join(" | "), thousands(w.goal()));
     }
     if let Some(f) = figures.iter().find(|f| f.workload == Workload::W6) {
         println!();
