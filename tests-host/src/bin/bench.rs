@@ -19,7 +19,7 @@ usage: cargo run --release -p tests-host --bin bench -- [options]
   --quick         few operations per workload: shows that every workload runs, the figures
                   are not the ones to quote
   --check         exit 1 when a figure is above its goal (for CI once the goals are met)
-  --device NAME   only this device kind (sgh10, sgh50, wv5800m)
+  --device NAME   only this device kind (sgh10, sgh50, wv5800m, core)
   --only W        only this workload (W1 ... W6)
   --run KIND W N  (internal) run N operations of workload W on KIND, what valgrind measures
 
@@ -60,7 +60,7 @@ fn main() -> ExitCode {
     }
     let kinds: Vec<&Kind> = KINDS.iter().filter(|k| device.as_deref().is_none_or(|d| d == k.name)).collect();
     if kinds.is_empty() {
-        return usage("--device: no such kind (sgh10, sgh50, wv5800m)");
+        return usage("--device: no such kind (sgh10, sgh50, wv5800m, core)");
     }
     let valgrind = match Command::new("valgrind").arg("--version").output() {
         Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).trim().to_string(),
