@@ -93,7 +93,7 @@ impl Workload {
 
 /// A device kind the benchmark measures.
 pub struct Kind {
-    /// Its name (the firmware binary's).
+    /// Its name: the firmware binary's, or `core` for the dictionary without a device.
     pub name: &'static str,
     /// The workloads it runs.
     pub workloads: &'static [Workload],
