@@ -12,22 +12,31 @@
 //! every 8.192 s (1000 and 65536 share the factor 8); heartbeat, LED and protocol deadlines
 //! meet one at random, once in 65536.
 //!
-//! [`wake_tick`] moves a wake-up time whose low 16 bits are 0 one tick later. On the STM32 that
-//! delays one wake-up in 65536 by 1 µs, far inside every tolerance of the protocols (the
-//! shortest is the 1 ms sample period); in Renode it is what keeps the boards running. Every
-//! timer the firmware awaits goes through it (`firmware::wake_at`), so the driver's queue never
-//! holds a time the model cannot fire.
+//! FFFFh is doubtful too: the model's counter wraps after 65535 ticks (its limit is ARR = FFFFh
+//! and a limit is reached when the value gets there), so it never reads FFFFh, and a compare at
+//! FFFFh fires only by reaching its limit in the same clock update as the wrap.
+//!
+//! [`wake_tick`] moves a wake-up time whose low 16 bits are FFFFh or 0 to the next tick whose
+//! low 16 bits are 1, at most 2 ticks later. On the STM32 that delays two wake-ups in 65536 by
+//! 1 or 2 µs, far inside every tolerance of the protocols (the shortest is the 1 ms sample
+//! period); in Renode it is what keeps the boards running. Every timer the firmware awaits goes
+//! through it (`firmware::wake_at`), so the driver's queue never holds a time the model may not
+//! fire.
 
 /// The compare value Renode's STM32 timer model never fires for.
 pub const LOST_COMPARE: u16 = 0;
 
+/// The compare value Renode's model fires for only together with the counter's wrap.
+pub const WRAP_COMPARE: u16 = 0xFFFF;
+
 /// The earliest tick at or after `tick` whose low 16 bits (what the time driver writes into
-/// the compare register) are not [`LOST_COMPARE`]: `tick` itself, or one tick later.
+/// the compare register) are neither [`LOST_COMPARE`] nor [`WRAP_COMPARE`]: `tick` itself, or
+/// one or two ticks later.
 pub const fn wake_tick(tick: u64) -> u64 {
-    if tick as u16 == LOST_COMPARE {
-        tick + 1
-    } else {
-        tick
+    match tick as u16 {
+        WRAP_COMPARE => tick + 2,
+        LOST_COMPARE => tick + 1,
+        _ => tick,
     }
 }
 
@@ -41,21 +50,24 @@ mod tests {
     }
 
     #[test]
-    fn only_the_lost_compare_value_moves() {
-        for tick in [1u64, 2, 999, 0x7FFF, 0x8000, 0xFFFF, 0x1_0001, 0x1234_5678] {
+    fn only_the_doubtful_compare_values_move() {
+        for tick in [1u64, 2, 999, 0x7FFF, 0x8000, 0xFFFE, 0x1_0001, 0x1234_5678] {
             assert_eq!(wake_tick(tick), tick, "{tick:#x}");
         }
         for k in [0u64, 1, 2, 125, 0xFFFF_FFFF] {
             let tick = k << 16;
             assert_eq!(wake_tick(tick), tick + 1, "{tick:#x}");
-            assert_ne!(compare(wake_tick(tick)), LOST_COMPARE);
+            assert_eq!(compare(wake_tick(tick)), 1);
+            if k > 0 {
+                assert_eq!(wake_tick(tick - 1), tick + 1, "{:#x}", tick - 1);
+            }
         }
     }
 
     /// The run loop's 1 ms sample grid, from any start, over ten minutes: without the shift
     /// some of its wake-ups would be programmed as compare value 0 (the grid meets a multiple
-    /// of 65536 µs every 8.192 s when it starts on a multiple of 8 µs); with it none is, and
-    /// none is more than 1 µs late.
+    /// of 65536 µs every 8.192 s when it starts on a multiple of 8 µs); with it none is (nor
+    /// FFFFh), and none is more than 2 µs late.
     #[test]
     fn ten_minutes_of_the_sample_grid_never_program_compare_zero() {
         let mut lost_without = 0;
@@ -66,8 +78,8 @@ mod tests {
                     lost_without += 1;
                 }
                 let w = wake_tick(t);
-                assert_ne!(compare(w), LOST_COMPARE, "start {start}, tick {t}");
-                assert!(w >= t && w - t <= 1);
+                assert!(![LOST_COMPARE, WRAP_COMPARE].contains(&compare(w)), "start {start}, tick {t}");
+                assert!(w >= t && w - t <= 2);
                 t += 1_000;
             }
         }
