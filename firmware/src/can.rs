@@ -19,7 +19,7 @@ use embassy_stm32::can::{
     BufferedCanRx, Can, CanTx, ExtendedId, Fifo, Frame as HwFrame, Id, Mailbox, RxBuf as HwRxBuf, StandardId,
 };
 use embassy_stm32::pac;
-use embassy_time::{with_timeout, Duration};
+use embassy_time::{with_deadline, Duration, Instant};
 use heapless::Vec;
 use od_core::node::BusEvent;
 use od_core::{Bitrate, CanId, Frame};
@@ -133,7 +133,7 @@ impl Bus {
     /// bus takes them within [`FLUSH_TIMEOUT`]; what is left then is dropped. The controller
     /// re-joins the bus at the new rate after 11 recessive bits.
     pub async fn set_bitrate(&mut self, rate: Bitrate) {
-        let _ = with_timeout(FLUSH_TIMEOUT, async {
+        let _ = with_deadline(crate::wake_at(Instant::now() + FLUSH_TIMEOUT), async {
             loop {
                 self.pump();
                 let empty = self.queue.is_empty();

@@ -20,8 +20,8 @@ use od_core::Instant;
 use static_cell::StaticCell;
 
 use crate::can::{Bus, RxBuf};
-use crate::now;
 use crate::params::{self, Params};
+use crate::{now, wake_at};
 
 /// Powers the node on from what the parameter pages hold. A board whose pages hold no serial
 /// number (factory data, 1018h sub 4) gets one derived from the MCU's unique ID, in RAM only:
@@ -46,7 +46,7 @@ pub fn boot<D: Device>(device: D, params: &mut Params, uid: &[u8; 12]) -> Node<D
 /// Waits for `deadline` (forever if there is none).
 async fn until(deadline: Option<Instant>) {
     match deadline {
-        Some(t) => Timer::at(embassy_time::Instant::from_micros(t.as_micros())).await,
+        Some(t) => Timer::at(wake_at(embassy_time::Instant::from_micros(t.as_micros()))).await,
         None => core::future::pending().await,
     }
 }
@@ -113,7 +113,9 @@ pub async fn run<D: Device, I: Io<D>>(device: D, mcu: Mcu, mut io: I) -> ! {
         let (device, core) = node.split();
         let led_change = io.show(device, core, t);
 
-        match select3(bus.ready(), until(earliest(node.next_deadline(), led_change)), Timer::at(next_sample)).await {
+        match select3(bus.ready(), until(earliest(node.next_deadline(), led_change)), Timer::at(wake_at(next_sample)))
+            .await
+        {
             Either3::Third(()) => {
                 let (device, core) = node.split();
                 io.sample(device, core, now());
