@@ -14,6 +14,7 @@ pub mod encoder;
 pub mod frame;
 pub mod guarding;
 pub mod heartbeat;
+pub mod j1939;
 pub mod led;
 pub mod lss;
 pub mod nmt;

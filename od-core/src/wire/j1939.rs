@@ -28,7 +28,7 @@ pub enum Error {
     Malformed,
 }
 
-/// A J1939 source or destination address (J1939-81 §4.1).
+/// A J1939 source or destination address (J1939-81).
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug)]
 pub struct Address(pub u8);
 
@@ -321,7 +321,7 @@ impl NameFields {
 }
 
 /// A 64-bit J1939 NAME. Its numeric value is its priority in address arbitration: the lower
-/// value wins (J1939-81 §4.4.3; D-J1939-1 on the manual's "higher NAME", A1).
+/// value wins (J1939-81; D-J1939-1 on the manual's "higher NAME", A1).
 #[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug)]
 pub struct Name(u64);
 
@@ -530,7 +530,7 @@ impl Acknowledgement {
     }
 }
 
-/// Address Claimed, PGN 60928 (J1939-81 §4.2.2): the claimant's NAME. Sent from the null
+/// Address Claimed, PGN 60928 (J1939-81): the claimant's NAME. Sent from the null
 /// address FEh it is Cannot Claim Address.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct AddressClaimed {
