@@ -10,3 +10,5 @@
 //!   priorities (3000h).
 
 pub mod claim;
+pub mod request;
+pub mod schedule;

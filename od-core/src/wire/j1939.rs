@@ -73,7 +73,7 @@ impl Priority {
     }
 }
 
-/// A parameter group number (J1939-21 §5.1.2): 18 bits, extended data page, data page, PDU
+/// A parameter group number (J1939-21): 18 bits, extended data page, data page, PDU
 /// format (PF) and PDU specific (PS). A PDU1 group (PF < 240) is destination-specific and its
 /// number has PS = 0; a PDU2 group (PF >= 240) is broadcast and PS is its group extension.
 /// Only such numbers can be built.
@@ -174,7 +174,7 @@ impl Pgn {
     }
 }
 
-/// A 29-bit J1939 identifier (J1939-21 §5.2): priority, PGN, destination (PDU1 only) and
+/// A 29-bit J1939 identifier (J1939-21): priority, PGN, destination (PDU1 only) and
 /// source. Fields are private so that a PDU2 identifier never has a destination and a PDU1
 /// one always has.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
@@ -288,7 +288,7 @@ impl Identifier {
     }
 }
 
-/// The ten fields of a NAME (J1939-81 §4.1.1; manual Table 7, object 3001h).
+/// The ten fields of a NAME (J1939-81; manual Table 7, object 3001h).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
 pub struct NameFields {
     /// Identity number, 21 bits (bits 0..=20).
@@ -421,7 +421,7 @@ fn exact<const N: usize>(data: &[u8]) -> Result<[u8; N], Error> {
     take(data)
 }
 
-/// Request, PGN 59904 (J1939-21 §5.4.2): the requested PGN in three bytes.
+/// Request, PGN 59904 (J1939-21): the requested PGN in three bytes.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Request {
     /// The requested parameter group.
@@ -455,7 +455,7 @@ impl Request {
     }
 }
 
-/// The control byte of an acknowledgement (J1939-21 §5.4.4).
+/// The control byte of an acknowledgement (J1939-21).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum AckControl {
     /// Positive acknowledgement, 0.
@@ -468,7 +468,7 @@ pub enum AckControl {
     CannotRespond,
 }
 
-/// Acknowledgement, PGN 59392 (J1939-21 §5.4.4): control byte, group function value, two
+/// Acknowledgement, PGN 59392 (J1939-21): control byte, group function value, two
 /// reserved bytes FFh, the address acknowledged (the requester) and the PGN.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Acknowledgement {

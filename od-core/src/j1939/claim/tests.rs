@@ -170,7 +170,7 @@ fn cannot_claim_delays_differ_between_names_and_stay_in_range() {
     for id in 0..64u32 {
         let c = claimer(id);
         let d = c.cannot_claim_delay_us();
-        assert!(d <= 153_000 && d % CANNOT_CLAIM_STEP_US == 0);
+        assert!(d <= 153_000 && d.is_multiple_of(CANNOT_CLAIM_STEP_US));
         seen[(d / CANNOT_CLAIM_STEP_US) as usize] = true;
     }
     assert!(seen.iter().filter(|&&s| s).count() > 16, "delays should spread");
