@@ -824,5 +824,66 @@ impl Emcy {
     }
 }
 
+/// A received J1939 frame, classified by its group and parsed: what a node dispatches on and
+/// what a bus trace shows.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Payload {
+    /// Request, PGN 59904.
+    Request(Request),
+    /// Acknowledgement, PGN 59392.
+    Acknowledgement(Acknowledgement),
+    /// Address Claimed, PGN 60928, from a unicast address.
+    AddressClaimed(AddressClaimed),
+    /// Cannot Claim: PGN 60928 from the null address.
+    CannotClaim(AddressClaimed),
+    /// A parameter-access request, CAM21.
+    Cam21(CamRequest),
+    /// A parameter-access response, CAM11.
+    Cam11(CamResponse),
+    /// Position, EPOS.
+    Epos(Epos),
+    /// Speed, ESPD.
+    Espd(Espd),
+    /// Position and speed, Proprietary B.
+    ProprietaryB(ProprietaryB),
+    /// Emergency.
+    Emcy(Emcy),
+    /// Any other group: not parsed further.
+    Other,
+}
+
+/// A received J1939 frame: its identifier and its parsed payload.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Message {
+    /// The identifier.
+    pub id: Identifier,
+    /// The payload.
+    pub payload: Payload,
+}
+
+impl Message {
+    /// Classify and parse `frame`: [`Error::Malformed`] for a frame that is not J1939 (11-bit
+    /// identifier, remote frame), and the payload's error for a known group whose bytes do not
+    /// fit its format. Groups this module does not know are [`Payload::Other`].
+    pub fn parse(frame: &Frame) -> Result<Message, Error> {
+        let id = Identifier::from_frame(frame)?;
+        let data = frame.payload();
+        let payload = match id.pgn() {
+            Pgn::REQUEST => Payload::Request(Request::parse(data)?),
+            Pgn::ACKNOWLEDGEMENT => Payload::Acknowledgement(Acknowledgement::parse(data)?),
+            Pgn::ADDRESS_CLAIMED if id.source() == Address::NULL => Payload::CannotClaim(AddressClaimed::parse(data)?),
+            Pgn::ADDRESS_CLAIMED => Payload::AddressClaimed(AddressClaimed::parse(data)?),
+            Pgn::CAM21 => Payload::Cam21(CamRequest::parse(data)?),
+            Pgn::CAM11 => Payload::Cam11(CamResponse::parse(data)?),
+            Pgn::EPOS => Payload::Epos(Epos::parse(data)?),
+            Pgn::ESPD => Payload::Espd(Espd::parse(data)?),
+            Pgn::PROPRIETARY_B => Payload::ProprietaryB(ProprietaryB::parse(data)?),
+            Pgn::EMCY => Payload::Emcy(Emcy::parse(data)?),
+            _ => Payload::Other,
+        };
+        Ok(Message { id, payload })
+    }
+}
+
 #[cfg(test)]
 mod tests;

@@ -381,9 +381,50 @@ fn cam_commands_other_than_expedited_are_refused() {
     );
 }
 
+#[test]
+fn messages_are_classified_by_group() {
+    let parse = |id: u32, data: &[u8]| Message::parse(&Frame::new(CanId::Ext(id), data)).map(|m| m.payload);
+    let ff = [0xFF; 8];
+    assert_eq!(parse(0x18EA_EF00, &[0x5F, 0xFC, 0x00]), Ok(Payload::Request(Request { pgn: Pgn::EPOS })));
+    assert_eq!(
+        parse(0x18E8_FFEF, &[1, 0xFF, 0xFF, 0xFF, 0, 0x00, 0xFF, 0x00]),
+        Ok(Payload::Acknowledgement(Acknowledgement::nack(Pgn::new(0xFF00).unwrap(), Address(0))))
+    );
+    let name = AddressClaimed { name: Name::from_raw(0xB000_8E00_8E20_0001) };
+    assert_eq!(parse(0x18EE_FFEF, &name.emit()), Ok(Payload::AddressClaimed(name)));
+    assert_eq!(parse(0x18EE_FFFE, &name.emit()), Ok(Payload::CannotClaim(name)));
+    assert_eq!(
+        parse(0x1C06_EF00, &[0x40, 0x03, 0x60, 0, 0, 0, 0, 0]),
+        Ok(Payload::Cam21(CamRequest::Read { index: 0x6003, sub: 0 }))
+    );
+    assert_eq!(
+        parse(0x1C05_00EF, &[0x60, 0x00, 0x30, 3, 0, 0, 0, 0]),
+        Ok(Payload::Cam11(CamResponse::Written { index: 0x3000, sub: 3 }))
+    );
+    assert_eq!(parse(0x0CFC_5FEF, &[1, 0, 0, 0, 0xFF, 0xFF, 0xFF, 0xFF]), Ok(Payload::Epos(Epos { position: 1 })));
+    assert_eq!(parse(0x0CFC_61EF, &ff), Ok(Payload::Espd(Espd { speed: -1 })));
+    assert_eq!(
+        parse(0x18FF_AAEF, &[1, 0, 0, 0, 2, 0, 0, 0]),
+        Ok(Payload::ProprietaryB(ProprietaryB { position: 1, speed: 2 }))
+    );
+    assert_eq!(
+        parse(0x04FC_68EF, &[0x20, 0x81, 0x11, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF]),
+        Ok(Payload::Emcy(Emcy { code: 0x8120, register: 0x11 }))
+    );
+    assert_eq!(parse(0x18FE_EE00, &ff), Ok(Payload::Other));
+    // A known group with bytes that do not fit, and frames that are not J1939.
+    assert_eq!(parse(0x0CFC_5FEF, &[1, 2, 3, 4]), Err(Error::Length));
+    assert_eq!(parse(0x1C06_EF00, &[0xC0, 0, 0, 0, 0, 0, 0, 0]), Err(Error::Malformed));
+    assert_eq!(Message::parse(&Frame::std(0x18F, &ff)), Err(Error::Malformed));
+    // EDP set: not the device's group.
+    assert_eq!(parse(0x0EFC_5FEF, &ff), Ok(Payload::Other));
+}
+
 mod properties {
+    extern crate std;
     use super::*;
     use proptest::prelude::*;
+    use std::vec;
 
     proptest! {
         #![proptest_config(ProptestConfig { cases: 2048, ..ProptestConfig::default() })]
@@ -402,10 +443,27 @@ mod properties {
             if let Ok(p) = ProprietaryB::parse(&data) { prop_assert_eq!(ProprietaryB::parse(&p.emit()), Ok(p)); }
             if let Ok(e) = Emcy::parse(&data) { prop_assert_eq!(Emcy::parse(&e.emit()), Ok(e)); }
             let _ = Pgn::new(raw);
+            let _ = Message::parse(&Frame::new(CanId::Ext(raw & 0x1FFF_FFFF), &data));
             let id = if ext { CanId::Ext(raw) } else { CanId::Std(raw as u16) };
             let frame = if rtr { Frame::remote(id, data.len() as u8) } else { Frame::new(id, &data) };
             if let Ok(i) = Identifier::from_frame(&frame) {
                 prop_assert_eq!(CanId::Ext(i.emit()), frame.id);
+            }
+        }
+
+        /// Frames of every known group, with any priority, addresses and bytes, parse or fail
+        /// without panicking, and a parsed message keeps the frame's identifier.
+        #[test]
+        fn known_groups_never_panic(
+            group in prop::sample::select(vec![0xEAu32 << 8, 0xE8 << 8, 0xEE << 8, 0x05 << 8, 0x06 << 8, 0xFC5F, 0xFC61, 0xFFAA, 0xFC68]),
+            prio in 0u32..8, ps in any::<u8>(), sa in any::<u8>(),
+            data in proptest::collection::vec(any::<u8>(), 0..=8),
+        ) {
+            let raw = prio << 26 | group << 8 | if group >> 8 < 240 { (ps as u32) << 8 } else { 0 } | sa as u32;
+            let frame = Frame::new(CanId::Ext(raw), &data);
+            if let Ok(m) = Message::parse(&frame) {
+                prop_assert_eq!(m.id.emit(), raw);
+                prop_assert!(m.payload != Payload::Other);
             }
         }
 
