@@ -102,11 +102,7 @@ impl AddressClaimer {
     /// The green LED (manual Table 3): blinking while address claiming is active or has
     /// failed, on once the address is claimed, off before the start (D-J1939-8).
     pub const fn green_led(&self) -> LedState {
-        match self.state {
-            State::Off => LedState::Off,
-            State::Claimed { .. } => LedState::On,
-            State::Claiming { .. } | State::CannotClaim => LedState::Flashing,
-        }
+        crate::j1939::led::green(self.state)
     }
 
     /// Has another CA been seen claiming `address`?

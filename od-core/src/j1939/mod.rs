@@ -6,9 +6,11 @@
 //!   before other traffic, and the green LED while claiming;
 //! - [`request`]: what the node does with a Request (PGN 59904): send the group, NACK, or stay
 //!   silent;
+//! - [`led`]: the three LEDs of a WV58MR channel;
 //! - [`schedule`]: cyclic transmission of the process-data groups at their cycle times and
 //!   priorities (3000h).
 
 pub mod claim;
+pub mod led;
 pub mod request;
 pub mod schedule;
