@@ -585,7 +585,8 @@ pub enum CamRequest {
         sub: u8,
         /// The value, little-endian from byte 4, bytes past `len` zero.
         value: u32,
-        /// Valid bytes, 1..=4; `None` when the client did not indicate the size (22h).
+        /// Valid bytes, 1..=4; `None` when the client did not indicate the size (22h, emitted
+        /// for any other count too).
         len: Option<u8>,
     },
 }
@@ -662,7 +663,7 @@ pub enum CamResponse {
         sub: u8,
         /// The value, little-endian from byte 4.
         value: u32,
-        /// Valid bytes, 1..=4.
+        /// Valid bytes, 1..=4 (any other count is emitted as 4).
         len: u8,
     },
     /// Write confirmation, 60h, bytes 4-7 00h.
