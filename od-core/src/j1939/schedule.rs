@@ -131,7 +131,10 @@ impl<const N: usize> Scheduler<N> {
         }
         let s = &mut self.slots[best?];
         let next = s.next?.add_millis(s.cycle_ms as u64);
-        s.next = Some(if next > now { next } else { now.add_millis(s.cycle_ms as u64) });
+        s.next = match s.cycle_ms {
+            0 => None,
+            c => Some(if next > now { next } else { now.add_millis(c as u64) }),
+        };
         Some(Due { pgn: s.pgn, priority: s.priority })
     }
 
