@@ -7,10 +7,14 @@
 //! - [`request`]: what the node does with a Request (PGN 59904): send the group, NACK, or stay
 //!   silent;
 //! - [`led`]: the three LEDs of a WV58MR channel;
+//! - [`param`]: the J1939 addressing around the SDO server for CAM21/CAM11;
+//! - [`rx`]: the frames a node receives, as acceptance filters;
 //! - [`schedule`]: cyclic transmission of the process-data groups at their cycle times and
 //!   priorities (3000h).
 
 pub mod claim;
 pub mod led;
+pub mod param;
 pub mod request;
+pub mod rx;
 pub mod schedule;

@@ -725,9 +725,15 @@ impl CamResponse {
 
     /// The CAM11 frame from the device at `source` to the requester at `destination`.
     pub fn frame(&self, destination: Address, source: Address) -> Frame {
-        let id = Identifier { priority: CAM_PRIORITY, pgn: Pgn::CAM11, destination: Some(destination), source };
-        id.frame(&self.emit())
+        cam11_frame(&self.emit(), destination, source)
     }
+}
+
+/// A CAM11 frame (priority 7) carrying the 8-byte SDO answer `payload` from `source` to
+/// `destination`.
+pub fn cam11_frame(payload: &[u8; 8], destination: Address, source: Address) -> Frame {
+    let id = Identifier { priority: CAM_PRIORITY, pgn: Pgn::CAM11, destination: Some(destination), source };
+    id.frame(payload)
 }
 
 /// EPOS, PGN 64607 (manual §5.4.1): the position value (6004h), bytes 4-7 FFh.
