@@ -485,3 +485,76 @@ mod properties {
         }
     }
 }
+
+/// The frames `dbc/WV58MR.vectors.json` holds: emitted by this module, decoded by the Python
+/// suite with cantools through `dbc/WV58MR.dbc`, so the DBC and the wire formats cannot drift
+/// apart. Regenerate with `UPDATE_DBC=1 cargo test -p od-core --lib dbc_vectors`.
+#[test]
+fn dbc_vectors_are_current() {
+    extern crate std;
+    use std::format;
+    use std::string::String;
+
+    fn hex(f: &Frame) -> String {
+        f.payload().iter().map(|b| format!("{b:02x}")).collect()
+    }
+    let mut out = String::from("[\n");
+    let mut add = |message: &str, f: Frame, signals: String| {
+        let CanId::Ext(raw) = f.id else { panic!("J1939 frames are extended") };
+        if out.len() > 2 {
+            out.push_str(",\n");
+        }
+        out.push_str(&format!(
+            "  {{\"message\": \"{message}\", \"id\": {raw}, \"data\": \"{}\", \"signals\": {{{signals}}}}}",
+            hex(&f)
+        ));
+    };
+    let pdu2 = |p: u8, pgn: Pgn, sa: u8| Identifier::pdu2(prio(p), pgn, Address(sa)).unwrap();
+    for (p, sa, position) in [(3, 0xEF, 0x12345u32), (2, 0xEF, 67_108_863), (3, 0x80, 0)] {
+        let f = pdu2(p, Pgn::EPOS, sa).frame(&Epos { position }.emit());
+        add("EPOS", f, format!("\"PositionValue\": {position}"));
+    }
+    for speed in [100i16, -2, -32768, 32767, 0] {
+        let f = pdu2(3, Pgn::ESPD, 0xEF).frame(&Espd { speed }.emit());
+        add("ESPD", f, format!("\"SpeedValue\": {speed}"));
+    }
+    for (position, speed) in [(0x12345u32, 100i16), (5, -300)] {
+        let f = pdu2(6, Pgn::PROPRIETARY_B, 0xEF).frame(&ProprietaryB { position, speed }.emit());
+        add("ProprietaryB", f, format!("\"PositionValue\": {position}, \"SpeedValue\": {speed}"));
+    }
+    for (code, register) in [(0xFF05u16, 0x81u8), (0x8120, 0x11), (0x8140, 0x11), (0xFF16, 0x81), (0, 0)] {
+        let f = pdu2(1, Pgn::EMCY, 0xEF).frame(&Emcy { code, register }.emit());
+        add("EMCY", f, format!("\"ErrorCode\": {code}, \"ErrorRegister\": {register}"));
+    }
+    for (id, sa) in [(0x12_3456u32, 0xEF), (1, 0x80), (0x1F_FFFF, 0xFE)] {
+        let name = Name::from_fields(&wv58mr_name(id)).unwrap();
+        let f = AddressClaimed { name }.frame(Address(sa));
+        let n = name.fields();
+        add(
+            "AddressClaimed",
+            f,
+            format!(
+                "\"IdentityNumber\": {}, \"ManufacturerCode\": {}, \"ECUInstance\": {}, \"FunctionInstance\": {}, \
+                 \"Function\": {}, \"Reserved\": {}, \"VehicleSystem\": {}, \"VehicleSystemInstance\": {}, \
+                 \"IndustryGroup\": {}, \"ArbitraryAddressCapable\": {}",
+                n.identity_number,
+                n.manufacturer_code,
+                n.ecu_instance,
+                n.function_instance,
+                n.function,
+                n.reserved as u8,
+                n.vehicle_system,
+                n.vehicle_system_instance,
+                n.industry_group,
+                n.arbitrary_address_capable as u8
+            ),
+        );
+    }
+    out.push_str("\n]\n");
+    let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../dbc/WV58MR.vectors.json");
+    if std::env::var_os("UPDATE_DBC").is_some() {
+        std::fs::write(&path, &out).unwrap();
+    }
+    let stored = std::fs::read_to_string(&path).unwrap_or_default();
+    assert!(stored == out, "{} is stale: UPDATE_DBC=1 cargo test -p od-core --lib dbc_vectors", path.display());
+}
