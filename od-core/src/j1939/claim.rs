@@ -2,7 +2,10 @@
 //! decisions D-J1939-1, -3, -4 and -8 in `docs/decisions.md`).
 //!
 //! - [`AddressClaimer::start`] claims the preferred address (5F0Ah.01, default EFh) with an
-//!   Address Claimed message (PGN 60928, priority 6, to the global address).
+//!   Address Claimed message (PGN 60928, priority 6, to the global address);
+//!   [`AddressClaimer::start_delayed`] does so after the CA's pseudo-random delay of 0..153 ms,
+//!   so that two CAs powered up together (the two channels of a WV58MR) do not send the same
+//!   identifier with different data at the same instant (D-J1939-13).
 //! - A Request for Address Claimed (PGN 59904 with PGN 60928) to the global address or to our
 //!   address is answered with our claim, during the contention period too.
 //! - An Address Claimed message for our address from another CA is a contest: the numerically
@@ -34,6 +37,11 @@ pub const CANNOT_CLAIM_STEP_US: u64 = 600;
 pub enum State {
     /// Not started: nothing sent, nothing answered.
     Off,
+    /// Started; the first claim goes out at `at` ([`AddressClaimer::start_delayed`]).
+    Starting {
+        /// When the claim is due.
+        at: Instant,
+    },
     /// `address` claimed at `since`; the claim has not yet stood for 250 ms.
     Claiming {
         /// The address claimed.
@@ -121,6 +129,14 @@ impl AddressClaimer {
         self.claim(self.preferred, now)
     }
 
+    /// Start as [`AddressClaimer::start`] does, but send the claim only after the CA's
+    /// pseudo-random delay (0..153 ms, fixed for a NAME), from [`AddressClaimer::poll`]. Until
+    /// then the CA has no address and answers nothing; claims it sees still fill its table.
+    pub fn start_delayed(&mut self, now: Instant) {
+        self.cannot_claim_due = None;
+        self.state = State::Starting { at: now.add_micros(self.random_delay_us()) };
+    }
+
     /// Change the preferred address for the next [`AddressClaimer::start`].
     pub fn set_preferred(&mut self, preferred: Address) {
         self.preferred = preferred;
@@ -146,9 +162,10 @@ impl AddressClaimer {
         (0..n).map(|k| Address(self.lowest + ((start + k) % n) as u8)).find(|&a| a != from && !self.is_taken(a))
     }
 
-    /// The Cannot Claim delay, 0..=255 steps of 0.6 ms, from the NAME's bytes: fixed for one
-    /// CA, different between CAs whose NAMEs differ in almost any field.
-    fn cannot_claim_delay_us(&self) -> u64 {
+    /// The pseudo-random delay of a Cannot Claim answer and of a delayed start: 0..=255 steps
+    /// of 0.6 ms from the NAME's bytes, fixed for one CA, different between CAs whose NAMEs
+    /// differ in one byte.
+    pub fn random_delay_us(&self) -> u64 {
         let steps = self.name.to_le_bytes().iter().fold(0u8, |a, &b| a.rotate_left(3) ^ b);
         steps as u64 * CANNOT_CLAIM_STEP_US
     }
@@ -201,7 +218,7 @@ impl AddressClaimer {
             }
             State::CannotClaim if destination == Address::GLOBAL => {
                 if self.cannot_claim_due.is_none() {
-                    self.cannot_claim_due = Some(now.add_micros(self.cannot_claim_delay_us()));
+                    self.cannot_claim_due = Some(now.add_micros(self.random_delay_us()));
                 }
                 None
             }
@@ -209,9 +226,15 @@ impl AddressClaimer {
         }
     }
 
-    /// Time passes: the claim stands after 250 ms, a delayed Cannot Claim falls due. Returns
+    /// Time passes: a delayed start claims, the claim stands after 250 ms, a delayed Cannot
+    /// Claim falls due. Returns
     /// the frame to send, if any; call again until `None`.
     pub fn poll(&mut self, now: Instant) -> Option<Frame> {
+        if let State::Starting { at } = self.state {
+            if now >= at {
+                return Some(self.claim(self.preferred, now));
+            }
+        }
         if let State::Claiming { address, since } = self.state {
             if now >= since.add_millis(CONTENTION_MS) {
                 self.state = State::Claimed { address };
@@ -232,6 +255,7 @@ impl AddressClaimer {
     /// When [`AddressClaimer::poll`] must next run.
     pub fn next_deadline(&self) -> Option<Instant> {
         let stand = match self.state {
+            State::Starting { at } => Some(at),
             State::Claiming { since, .. } => Some(since.add_millis(CONTENTION_MS)),
             _ => None,
         };

@@ -32,7 +32,7 @@ pub const fn green(claim: State) -> LedState {
     match claim {
         State::Off => LedState::Off,
         State::Claimed { .. } => LedState::On,
-        State::Claiming { .. } | State::CannotClaim => LedState::Flashing,
+        State::Starting { .. } | State::Claiming { .. } | State::CannotClaim => LedState::Flashing,
     }
 }
 

@@ -169,7 +169,7 @@ fn cannot_claim_delays_differ_between_names_and_stay_in_range() {
     let mut seen = [false; 256];
     for id in 0..64u32 {
         let c = claimer(id);
-        let d = c.cannot_claim_delay_us();
+        let d = c.random_delay_us();
         assert!(d <= 153_000 && d.is_multiple_of(CANNOT_CLAIM_STEP_US));
         seen[(d / CANNOT_CLAIM_STEP_US) as usize] = true;
     }
@@ -236,6 +236,37 @@ fn a_redundant_pair_with_the_default_address_ends_on_two_addresses() {
     assert_eq!(deliver(&mut b, &request(0xFF, 0x10), ms(300)), Some(claim_frame(wv58mr(1000), 0xEF)));
 }
 
+#[test]
+fn a_delayed_start_claims_after_the_names_delay() {
+    let mut c = claimer(5);
+    let delay = c.random_delay_us();
+    assert!(delay <= 153_000);
+    c.start_delayed(ms(10));
+    let at = ms(10).add_micros(delay);
+    assert_eq!(c.state(), State::Starting { at });
+    assert_eq!((c.address(), c.source_address()), (None, None));
+    assert_eq!(c.green_led(), LedState::Flashing);
+    assert_eq!(c.next_deadline(), Some(at));
+    // Nothing answered yet; claims seen still count.
+    assert_eq!(deliver(&mut c, &request(0xFF, 0x00), ms(10)), None);
+    assert_eq!(deliver(&mut c, &claim_frame(wv58mr(100), 0x80), ms(10)), None);
+    assert!(c.is_taken(Address(0x80)));
+    if delay > 0 {
+        assert_eq!(c.poll(Instant::from_micros(at.as_micros() - 1)), None);
+    }
+    assert_eq!(c.poll(at), Some(claim_frame(wv58mr(5), 0xEF)));
+    assert_eq!(c.state(), State::Claiming { address: Address(0xEF), since: at });
+    assert_eq!(c.next_deadline(), Some(at.add_millis(250)));
+}
+
+#[test]
+fn the_two_channels_of_a_pair_start_at_different_instants() {
+    // Serial numbers that differ in the low byte, or in a higher one.
+    for (x, y) in [(1000u32, 1001u32), (0x1234, 0x1334), (0x01_0000, 0x02_0000), (7, 8)] {
+        assert_ne!(claimer(x).random_delay_us(), claimer(y).random_delay_us(), "{x:X} {y:X}");
+    }
+}
+
 mod properties {
     extern crate std;
     use super::*;
@@ -270,7 +301,7 @@ mod properties {
             let mut c = AddressClaimer::new(name, Address(0xEF), 0x80, 0xEF);
             let mut now = Instant::ZERO;
             let mut sent = heapless::Vec::<Frame, 256>::new();
-            let _ = sent.push(c.start(now));
+            if id % 2 == 0 { let _ = sent.push(c.start(now)); } else { c.start_delayed(now); }
             for (raw, data, dt) in msgs {
                 now = now.add_micros(dt);
                 while let Some(f) = c.poll(now) { let _ = sent.push(f); }
