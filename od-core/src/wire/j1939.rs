@@ -11,6 +11,7 @@
 //!   WV58MR carries CANopen expedited SDO in ([`CamRequest`] on CAM21, PGN 1536, and
 //!   [`CamResponse`] on CAM11, PGN 1280), and the process data [`Epos`] (64607), [`Espd`]
 //!   (64609), [`ProprietaryB`] (65450) and [`Emcy`] (64616).
+//! - [`Message`]: a received frame classified by its group and parsed into a [`Payload`].
 //!
 //! Every `parse` takes any byte slice and returns an error rather than panicking; every `emit`
 //! fills the bytes the specification leaves unused with the value it names (FFh, "not
