@@ -72,3 +72,6 @@ pub mod param;
 pub mod request;
 pub mod rx;
 pub mod schedule;
+
+#[cfg(test)]
+mod tests;
