@@ -14,6 +14,7 @@ pub mod encoder;
 pub mod frame;
 pub mod guarding;
 pub mod heartbeat;
+pub mod j1939;
 pub mod led;
 pub mod lss;
 pub mod nmt;
@@ -23,6 +24,7 @@ pub mod pdo;
 pub mod sdo;
 pub mod storage;
 pub mod time;
+pub mod wire;
 
 pub use abort::Abort;
 pub use bitrate::Bitrate;
