@@ -591,8 +591,10 @@ fn rss_kib(pid: u32) -> Option<u64> {
 fn clients_that_send_garbage_and_never_read_cost_bounded_memory() {
     let sim = Sim::start(&["--device", "sgh10:node=10"]);
     let Some(before) = rss_kib(sim.0.id()) else { return };
-    let garbage: String = ["< bogus >", "< send 601 1 zz >", "<xx", "yy>", "< echo >"].concat().repeat(2000);
-    let writers: Vec<_> = (0..10)
+    // Text outside `< >` and unknown commands: the old simulator answered each with an error
+    // that repeated up to 1 KB of the text.
+    let garbage: String = ("x".repeat(1000) + "< bogus >< send 601 1 zz >< echo >").repeat(200);
+    let writers: Vec<_> = (0..20)
         .map(|_| {
             let s = TcpStream::connect(("127.0.0.1", sim.1)).unwrap();
             let garbage = garbage.clone();
@@ -725,6 +727,30 @@ fn remote_frames_cross_the_simulator() {
     assert_eq!(a.wait_for("70A", 1000), Some("FF".into()), "toggle 1");
 }
 
+/// Runs `sim` with `args` on a free port; returns its exit status and standard error if it ends
+/// within five seconds (`None`: it kept running and was stopped).
+fn run_briefly(args: &[&str]) -> Option<(Option<i32>, String)> {
+    let mut child = Command::new(sim_bin())
+        .args(["--quiet", "--listen", &format!("127.0.0.1:{}", free_port())])
+        .args(args)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = WallClock::now() + Duration::from_secs(5);
+    while WallClock::now() < deadline {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut err = String::new();
+            child.stderr.take().unwrap().read_to_string(&mut err).unwrap();
+            return Some((status.code(), err));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    None
+}
+
 /// Issue 13 point 6: two devices on one node-ID of one bus are refused, with the reason.
 #[test]
 fn two_devices_on_one_node_id_are_refused() {
@@ -733,16 +759,12 @@ fn two_devices_on_one_node_id_are_refused() {
         &["--device", "sgh10", "--device", "sgh10"],
         &["--device", "sgh10:node=21", "--device", "sgh50:node=20,redundant=true"],
     ] {
-        let out = Command::new(sim_bin()).args(["--quiet", "--listen", "127.0.0.1:1"]).args(args).output().unwrap();
-        assert_eq!(out.status.code(), Some(1), "{args:?}");
-        let err = String::from_utf8_lossy(&out.stderr);
+        let (code, err) = run_briefly(args).expect("refused at start");
+        assert_eq!(code, Some(1), "{args:?}");
         assert!(err.contains("both have node-ID") && err.contains("node="), "{args:?}: {err}");
     }
-    let out = Command::new(sim_bin())
-        .args(["--quiet", "--listen", "127.0.0.1:1", "--device", "sgh10:serial=5", "--device", "sgh10:serial=5,node=2"])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
+    let (_, err) =
+        run_briefly(&["--device", "sgh10:serial=5", "--device", "sgh10:serial=5,node=2"]).expect("refused at start");
     assert!(err.contains("same LSS address"), "{err}");
 }
 
@@ -750,12 +772,8 @@ fn two_devices_on_one_node_id_are_refused() {
 /// runs at the bus's rate starts with a hint.
 #[test]
 fn bit_rates_nobody_uses_are_refused_or_hinted() {
-    let out = Command::new(sim_bin())
-        .args(["--quiet", "--listen", "127.0.0.1:1", "--device", "sgh10", "--bitrate", "can3=250"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let (code, err) = run_briefly(&["--device", "sgh10", "--bitrate", "can3=250"]).expect("refused at start");
+    assert_eq!(code, Some(1));
     assert!(err.contains("--bitrate can3=250: no device on can3"), "{err}");
     let mut child = Command::new(sim_bin())
         .args(["--quiet", "--listen", &format!("127.0.0.1:{}", free_port()), "--device", "sgh10:node=10"])
@@ -764,8 +782,14 @@ fn bit_rates_nobody_uses_are_refused_or_hinted() {
         .stderr(Stdio::piped())
         .spawn()
         .unwrap();
-    let mut line = String::new();
-    std::io::BufRead::read_line(&mut std::io::BufReader::new(child.stderr.take().unwrap()), &mut line).unwrap();
+    let stderr = child.stderr.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = std::io::BufRead::read_line(&mut std::io::BufReader::new(stderr), &mut line);
+        let _ = tx.send(line);
+    });
+    let line = rx.recv_timeout(Duration::from_secs(5)).unwrap_or_default();
     let _ = child.kill();
     let _ = child.wait();
     assert!(line.contains("hint: no node on can0 runs at its 250 kbit/s"), "{line}");
