@@ -484,9 +484,9 @@ impl Client {
         self.w.write_all(msg.as_bytes()).unwrap();
     }
 
-    /// The next message within 200 ms.
+    /// The next message within 500 ms.
     fn next(&mut self) -> Option<String> {
-        let deadline = WallClock::now() + Duration::from_millis(200);
+        let deadline = WallClock::now() + Duration::from_millis(500);
         loop {
             if let Some(end) = self.buf.find('>') {
                 let msg = self.buf[..=end].trim().to_string();

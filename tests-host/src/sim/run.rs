@@ -280,6 +280,16 @@ impl TextQueue {
         true
     }
 
+    /// Queues `item` now, whatever the queue holds (a short answer of the server's own).
+    fn push_now(&self, item: Item) {
+        let mut q = self.lock();
+        if let Item::Text(t) = &item {
+            q.bytes += t.len();
+        }
+        q.items.push_back(item);
+        self.changed.notify_all();
+    }
+
     /// The next item; `None` once closed and empty.
     fn pop(&self) -> Option<Item> {
         let mut q = self.lock();
@@ -409,6 +419,13 @@ impl Sim {
     fn event(&mut self, ev: Event) {
         match ev {
             Event::Join { id, bus, out, frames, dropped, label } => {
+                if let Sink::Text(q) = &out {
+                    // The answer to `< rawmode >`. python-can reads it with one recv and
+                    // compares it whole: the writer holds frames back a moment so they do
+                    // not arrive glued to it (none is lost: they wait in the queue).
+                    q.push_now(Item::Text(sc::OK.into()));
+                    q.push_now(Item::Pause);
+                }
                 if !self.quiet {
                     println!("-- {label} joins {}", self.buses[bus].name);
                 }
@@ -703,11 +720,8 @@ fn session(id: usize, mut reader: TcpStream, names: &[String], tx: &SyncSender<E
                 },
                 (Ok(Request::RawMode), Some(_), Some(_)) => reply(sc::OK),
                 (Ok(Request::RawMode), Some(b), None) => {
-                    // python-can reads the `< ok >` with one recv and compares it whole: the
-                    // writer holds frames back a moment so they do not arrive glued to it.
-                    if !reply(sc::OK) || !out.push_wait(Item::Pause) {
-                        return;
-                    }
+                    // The main loop answers `< ok >` when the client has joined the bus, so
+                    // every frame after the answer reaches it.
                     let (frames_tx, frames_rx) = sync_channel(CLIENT_FRAMES);
                     frames = Some(frames_tx);
                     let join = Event::Join {
