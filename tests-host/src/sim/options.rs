@@ -20,7 +20,10 @@ Options:
   --listen HOST:PORT      where socketcand clients connect (default 127.0.0.1:29536)
   --device KIND[:k=v,..]  add a device (repeatable). KIND: sgh10, sgh50, wv5800m, ap10t, wv58mr
                           keys: bus=can0|can1|..  node=N (CANopen node-ID 1..127, as if
-                          configured and stored before; node=unconfigured: LSS only)  address=N (J1939)  serial=N  variant=NAME
+                          configured and stored before, one per bus; node=unconfigured:
+                          LSS only)  address=N (J1939)  variant=NAME
+                          serial=N (factory serial number; default: one of the board's
+                          own, distinct on its bus)
                           redundant=true (SGH50, WV58MR: both channels)
                           position=RAW (fixed sensor value) | motion=ramp:STEPS_PER_S |
                           motion=sine:AMPL:PERIOD_S
