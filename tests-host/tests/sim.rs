@@ -711,6 +711,27 @@ fn a_flooding_client_waits_and_delays_no_one_else() {
     }
 }
 
+/// Issue 13 point 2: the bus carries frames at its bit rate, no faster: 1000 frames of 8 bytes
+/// at 125 kbit/s (1080 µs each) take at least a second, by the timestamps the observer gets.
+#[test]
+fn the_bus_carries_its_bit_rate_and_no_more() {
+    let sim = Sim::start(&["--device", "sgh10:node=10", "--bitrate", "can0=125"]);
+    let mut sender = sim.open("can0");
+    let mut observer = sim.open("can0");
+    sender.say(&f(0x123, &[1, 2, 3, 4, 5, 6, 7, 8]).repeat(1000));
+    let mut stamps = Vec::new();
+    let deadline = WallClock::now() + Duration::from_secs(15);
+    while stamps.len() < 1000 && WallClock::now() < deadline {
+        if let Some(msg) = observer.next() {
+            let t: f64 = msg.split(' ').nth(3).unwrap().parse().unwrap();
+            stamps.push(t);
+        }
+    }
+    assert_eq!(stamps.len(), 1000);
+    let span = stamps[999] - stamps[0];
+    assert!(span >= 1.0, "1000 frames in {span:.3} s: faster than 125 kbit/s carries them");
+}
+
 /// Issue 13 point 5: remote frames both ways: node guarding through `< sendrtr >`, and the
 /// other clients see `< rtr ID SEC.USEC DLC >`.
 #[test]

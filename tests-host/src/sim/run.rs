@@ -465,11 +465,25 @@ impl Sim {
                 self.buses[b].turn = id;
                 self.transmit(b, &frame, From::Client(id), now);
             }
+            // Frames that wait for the busy bus set the next wake-up.
+            self.take_frames(b);
         }
     }
 
     /// The client of bus `b` whose frame goes next: the first after the one served last.
     fn next_client(&mut self, b: usize) -> Option<usize> {
+        self.take_frames(b);
+        let turn = self.buses[b].turn;
+        let waiting = || self.clients.iter().enumerate().filter(|(_, c)| c.bus == b && c.pending.is_some());
+        waiting()
+            .filter(|(_, c)| c.id > turn)
+            .min_by_key(|(_, c)| c.id)
+            .or_else(|| waiting().min_by_key(|(_, c)| c.id))
+            .map(|(k, _)| k)
+    }
+
+    /// Each client of bus `b` without a frame in hand takes the next of its queue, if any.
+    fn take_frames(&mut self, b: usize) {
         let mut gone = Vec::new();
         for c in self.clients.iter_mut().filter(|c| c.bus == b && c.pending.is_none()) {
             match c.frames.try_recv() {
@@ -479,13 +493,6 @@ impl Sim {
             }
         }
         self.clients.retain(|c| c.pending.is_some() || !gone.contains(&c.id));
-        let turn = self.buses[b].turn;
-        let waiting = || self.clients.iter().enumerate().filter(|(_, c)| c.bus == b && c.pending.is_some());
-        waiting()
-            .filter(|(_, c)| c.id > turn)
-            .min_by_key(|(_, c)| c.id)
-            .or_else(|| waiting().min_by_key(|(_, c)| c.id))
-            .map(|(k, _)| k)
     }
 
     /// A frame from outside the nodes onto bus `b`; the nodes' answers follow at once.
