@@ -578,6 +578,45 @@ fn bad_input_is_dropped_or_refused_as_socketcand_does_and_stops_nothing() {
     assert_eq!(other.wait_for("70A", 2000), Some("00".into()));
 }
 
+/// Issue 13 point 4: the malformed messages a client sent are counted in the live view.
+#[test]
+fn the_view_counts_malformed_messages() {
+    let port = free_port();
+    let mut child = Command::new(sim_bin())
+        .args(["--listen", &format!("127.0.0.1:{port}"), "--device", "sgh10:node=10"])
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let stdout = child.stdout.take().unwrap();
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        for line in std::io::BufRead::lines(std::io::BufReader::new(stdout)).map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let deadline = WallClock::now() + Duration::from_secs(10);
+    while TcpStream::connect(("127.0.0.1", port)).is_err() && WallClock::now() < deadline {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let sim = Sim(child, port);
+    let mut c = sim.open("can0");
+    c.say("< send 601 9 1 >< send 601 2 1 >< send 601 1 zz >");
+    c.say("< sendrtr 70A 1 >");
+    let mut seen = Vec::new();
+    let found = loop {
+        match rx.recv_timeout(Duration::from_secs(5)) {
+            Ok(line) if line.contains("malformed") => break Some(line),
+            Ok(line) => seen.push(line),
+            Err(_) => break None,
+        }
+    };
+    let line = found.unwrap_or_else(|| panic!("no count in the view: {seen:#?}"));
+    assert!(line.contains(" on can0: 3 malformed messages dropped"), "{line}");
+    assert!(seen.iter().any(|l| l.contains("remote request") && l.contains("node guarding request")), "{seen:#?}");
+}
+
 /// The resident memory of process `pid`, in KiB (Linux).
 fn rss_kib(pid: u32) -> Option<u64> {
     let status = std::fs::read_to_string(format!("/proc/{pid}/status")).ok()?;
@@ -855,12 +894,15 @@ fn restart_on_the_same_state_dir_is_a_power_cycle() {
         assert_eq!(c.wait_for("7E4", 1000), Some("1100000000000000".into()));
         lss(&mut c, &[0x17, 0, 0, 0, 0, 0, 0, 0]);
         assert_eq!(c.wait_for("7E4", 1000), Some("1700000000000000".into()));
+        c.say("< sendrtr 70A 1 >");
+        std::thread::sleep(Duration::from_millis(200));
     }
     let sim = Sim::start(&["--device", "sgh10:node=10", "--state-dir", state]);
     let mut c = sim.open("can0");
     c.say(&f(0x000, &[0x82, 0]));
     assert_eq!(c.wait_for("72A", 1000), Some("00".into()), "the stored node-ID 42 is kept");
     let trace = std::fs::read_to_string(dir.join("t.log")).unwrap();
+    assert!(trace.lines().any(|l| l.ends_with(" can0 70A#R1")), "the remote frame: {trace}");
     assert!(trace.lines().any(|l| l.ends_with(" can0 7E5#112A000000000000") && l.starts_with('(')), "{trace}");
     drop(sim);
     let _ = std::fs::remove_dir_all(dir);

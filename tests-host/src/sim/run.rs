@@ -585,8 +585,12 @@ impl Sim {
         let bus = &self.buses[b];
         if let Some(t) = &mut self.trace {
             let id = sc::id_text(frame.id);
-            let body =
-                if frame.rtr { "R".to_string() } else { frame.payload().iter().map(|x| format!("{x:02X}")).collect() };
+            // candump's log: a remote frame is `R`, followed by its DLC unless 0.
+            let body = match (frame.rtr, frame.len) {
+                (true, 0) => "R".to_string(),
+                (true, n) => format!("R{n}"),
+                (false, _) => frame.payload().iter().map(|x| format!("{x:02X}")).collect(),
+            };
             let _ = writeln!(t, "({}.{:06}) {} {id}#{body}", micros / 1_000_000, micros % 1_000_000, bus.name);
             let _ = t.flush();
         }
