@@ -156,6 +156,20 @@ def sdo(net, node):
     return node
 
 
+def boot_up_of(net, node_id):
+    """An event set when node `node_id` sends its boot-up. Subscribe before causing it:
+    python-canopen's `wait_for_bootup` only sees a boot-up that arrives after the call, and the
+    simulator answers within a millisecond, often before the call."""
+    booted = threading.Event()
+
+    def on_message(_id, data, _t):
+        if bytes(data) == b"\x00":
+            booted.set()
+
+    net.subscribe(0x700 + node_id, on_message)
+    return booted
+
+
 def expect_abort(code, fn):
     with pytest.raises(canopen.SdoAbortedError) as e:
         fn()
@@ -208,9 +222,10 @@ def test_nmt_start_and_heartbeats(sdo):
 # ---- NMT, PDO (no SDO needed: the configuration comes from the EDS) ----
 
 
-def test_reset_gives_a_boot_up(node):
+def test_reset_gives_a_boot_up(net, node):
+    booted = boot_up_of(net, NODE)
     node.nmt.send_command(0x82)
-    node.nmt.wait_for_bootup(timeout=2)
+    assert booted.wait(2)
 
 
 def test_tpdo_on_sync_through_subscriptions(net, node, kind):
@@ -254,16 +269,17 @@ def test_lss_fastscan_configure_store_and_power_cycle(state_dir):
         # The fastscan left the node in configuration state.
         net.lss.configure_node_id(42)
         net.lss.store_configuration()
-        node = net.add_node(42, SGH10_EDS)
+        booted = boot_up_of(net, 42)
         net.lss.send_switch_state_global(net.lss.WAITING_STATE)
-        node.nmt.wait_for_bootup(timeout=2)
+        assert booted.wait(2)
         net.disconnect()
 
         sim.restart()
         net = sim.network()
         node = net.add_node(42, SGH10_EDS)
+        booted = boot_up_of(net, 42)
         node.nmt.send_command(0x81)
-        node.nmt.wait_for_bootup(timeout=2)
+        assert booted.wait(2)
         # Configured now: a new fastscan finds nobody.
         net.lss.RESPONSE_TIMEOUT = 0.1
         assert net.lss.fast_scan() == (False, None)
@@ -536,13 +552,15 @@ def test_lss_fastscan_finds_both_sgh50_channels(state_dir):
     sim = Sim("--device", "sgh50:redundant=true,node=unconfigured", "--state-dir", state_dir)
     try:
         net = sim.network()
-        net.lss.RESPONSE_TIMEOUT = 0.1
         found = []
         for node_id in (40, 41):
             net.lss.send_switch_state_global(net.lss.WAITING_STATE)
+            # Short: a fastscan waits this long for every bit nobody answers.
+            net.lss.RESPONSE_TIMEOUT = 0.1
             ok, ident = net.lss.fast_scan()
             assert ok, f"fastscan {len(found) + 1}"
             found.append(ident)
+            net.lss.RESPONSE_TIMEOUT = 1.0
             net.lss.configure_node_id(node_id)
             net.lss.store_configuration()
             net.lss.send_switch_state_global(net.lss.WAITING_STATE)
@@ -550,6 +568,7 @@ def test_lss_fastscan_finds_both_sgh50_channels(state_dir):
             time.sleep(0.2)
         assert found[0][3] != found[1][3], found
         net.lss.send_switch_state_global(net.lss.WAITING_STATE)
+        net.lss.RESPONSE_TIMEOUT = 0.1
         assert net.lss.fast_scan() == (False, None), "nobody left unconfigured"
         for node_id, ident in zip((40, 41), found):
             node = net.add_node(node_id, str(EDS / "SGH50.eds"))
