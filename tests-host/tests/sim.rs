@@ -715,6 +715,10 @@ fn a_save_behind_forty_reads_is_kept() {
 fn a_flooding_client_waits_and_delays_no_one_else() {
     let sim = Sim::start(&["--device", "sgh10:node=10"]);
     let before = rss_kib(sim.0.id());
+    let mut c = sim.open("can0");
+    // A heartbeat every 100 ms, to see it keep its period through the flood.
+    c.say(&f(0x60A, &[0x2B, 0x17, 0x10, 0x00, 100, 0, 0, 0]));
+    assert_eq!(c.wait_for("58A", 1000), Some("6017100000000000".into()));
     let flooder = sim.open("can0");
     let flood = f(0x123, &[0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88]).repeat(100);
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
@@ -730,21 +734,36 @@ fn a_flooding_client_waits_and_delays_no_one_else() {
         }
         sent
     });
-    std::thread::sleep(Duration::from_millis(500));
-    let mut c = sim.open("can0");
     let mut worst = Duration::ZERO;
+    let mut heartbeats = Vec::new();
+    let mut read_until = |c: &mut Client, id: &str, until: WallClock| -> bool {
+        while WallClock::now() < until {
+            let Some(msg) = c.next() else { continue };
+            let parts: Vec<&str> = msg.split(' ').collect();
+            if parts.get(2) == Some(&"70A") {
+                heartbeats.push(parts[3].parse::<f64>().unwrap());
+            }
+            if parts.get(2) == Some(&id) {
+                return true;
+            }
+        }
+        false
+    };
+    read_until(&mut c, "none", WallClock::now() + Duration::from_millis(500));
     for _ in 0..10 {
         let t = WallClock::now();
         c.say(&f(0x60A, &[0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0]));
-        assert!(c.wait_for("58A", 5000).is_some(), "answered");
+        assert!(read_until(&mut c, "58A", t + Duration::from_secs(5)), "answered");
         worst = worst.max(t.elapsed());
-        std::thread::sleep(Duration::from_millis(100));
+        read_until(&mut c, "none", WallClock::now() + Duration::from_millis(100));
     }
     stop.store(true, std::sync::atomic::Ordering::Relaxed);
     let sent = writer.join().unwrap();
     // The bus carries about 3700 such frames a second at 500 kbit/s; the flooder got to write
     // those, what its queue and the sockets hold, not everything it wanted to.
     assert!(worst < Duration::from_millis(500), "an SDO read waited {worst:?} behind {sent} flood frames");
+    let gap = heartbeats.windows(2).map(|w| w[1] - w[0]).fold(0.0, f64::max);
+    assert!(heartbeats.len() >= 10 && gap < 0.3, "heartbeat gap {gap:.3} s, {} heartbeats", heartbeats.len());
     if let (Some(before), Some(after)) = (before, rss_kib(sim.0.id())) {
         assert!(after < before + 40 * 1024, "{before} KiB -> {after} KiB after {sent} flood frames");
     }
