@@ -10,7 +10,7 @@ use crate::abort::Abort;
 use crate::frame::Frame;
 use crate::guarding;
 use crate::node::Core;
-use crate::time::Instant;
+use crate::time::{Duration, Instant};
 
 /// Index of the producer heartbeat time.
 pub const PRODUCER_TIME: u16 = 0x1017;
@@ -36,9 +36,13 @@ impl Heartbeat {
         self.period_ms != 0
     }
 
+    fn period(&self) -> Duration {
+        Duration::from_millis(self.period_ms as u64)
+    }
+
     fn start(&mut self, period_ms: u16, now: Instant) {
         self.period_ms = period_ms;
-        self.next = if period_ms == 0 { None } else { Some(now.add_millis(period_ms as u64)) };
+        self.next = if period_ms == 0 { None } else { Some(now + self.period()) };
     }
 }
 
@@ -59,9 +63,9 @@ pub fn poll(core: &mut Core, now: Instant) {
     core.out.send(Frame::std(0x700 + core.node_id as u16, &[core.nmt.code()]));
     // Keep the period's phase; a shell that polled far too late restarts it instead of
     // sending a burst.
-    let period = core.heartbeat.period_ms as u64;
-    let next = due.add_millis(period);
-    core.heartbeat.next = Some(if next <= now { now.add_millis(period) } else { next });
+    let period = core.heartbeat.period();
+    let next = due + period;
+    core.heartbeat.next = Some(if next <= now { now + period } else { next });
 }
 
 /// When the next heartbeat is due.

@@ -29,4 +29,4 @@ pub use bitrate::Bitrate;
 pub use frame::{CanId, Frame, RxId};
 pub use nmt::NmtState;
 pub use node::{BusEvent, Core, Device, Node, Output};
-pub use time::Instant;
+pub use time::{Duration, Instant};

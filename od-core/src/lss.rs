@@ -26,7 +26,7 @@ use crate::nmt::NmtState;
 use crate::node::{Core, Output};
 use crate::od::{CoreHook, GroupMask, Od};
 use crate::storage;
-use crate::time::Instant;
+use crate::time::{Duration, Instant};
 
 /// LSS master-to-slave identifier.
 pub const RX_ID: u16 = 0x7E5;
@@ -618,13 +618,9 @@ pub fn on_frame(core: &mut Core, frame: &Frame, now: Instant) -> LssEvent {
         }
         // Not while a store waits for the shell: its answer would fall into the silence.
         (LssState::Configuration, Request::ActivateBitTiming { delay_ms }) if !core.storage.saving() => {
-            let delay = delay_ms as u64 * 1000;
-            core.lss.switch = Some(Switch {
-                adopt_at: now.add_micros(delay),
-                boot_at: now.add_micros(2 * delay),
-                adopted: false,
-                activate: false,
-            });
+            let delay = Duration::from_millis(delay_ms as u64);
+            core.lss.switch =
+                Some(Switch { adopt_at: now + delay, boot_at: now + delay.times(2), adopted: false, activate: false });
             // The node leaves the bus until its boot-up on the new rate: no service sends.
             core.nmt = NmtState::Initialising;
         }

@@ -7,7 +7,7 @@
 //! 05040001h.
 
 use crate::abort::Abort;
-use crate::time::Instant;
+use crate::time::{Duration, Instant};
 
 /// The result of a successful write.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -33,7 +33,7 @@ pub trait ObjectAccess {
 pub const MAX_VALUE: usize = 32;
 
 /// How long the server waits for the client's next segment (D-SDO-3).
-pub const TIMEOUT_US: u64 = 1_000_000;
+pub const TIMEOUT: Duration = Duration::from_secs(1);
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum State {
@@ -173,7 +173,7 @@ impl SdoServer {
         let last = self.pos == self.len;
         out[0] = t | (((7 - n) as u8) << 1) | last as u8;
         self.toggle ^= 0x10;
-        self.deadline = now.add_micros(TIMEOUT_US);
+        self.deadline = now + TIMEOUT;
         if last {
             self.state = State::Idle;
         }
@@ -223,7 +223,7 @@ impl SdoServer {
         self.buf[self.len..self.len + n].copy_from_slice(&req[1..1 + n]);
         self.len += n;
         self.toggle ^= 0x10;
-        self.deadline = now.add_micros(TIMEOUT_US);
+        self.deadline = now + TIMEOUT;
         if cmd & 0x01 == 0 {
             return Some([0x20 | t, 0, 0, 0, 0, 0, 0, 0]);
         }
@@ -268,7 +268,7 @@ impl SdoServer {
         self.toggle = 0;
         self.len = 0;
         self.pos = 0;
-        self.deadline = now.add_micros(TIMEOUT_US);
+        self.deadline = now + TIMEOUT;
     }
 
     /// Aborts a transfer whose client fell silent; returns the abort frame payload.
