@@ -19,6 +19,7 @@ use crate::nmt::NmtState;
 use crate::node::Core;
 use crate::od::CoreHook;
 use crate::time::Instant;
+use crate::wire::emcy::EmcyMessage;
 
 /// Index of the error register.
 pub const ERROR_REGISTER: u16 = 0x1001;
@@ -26,8 +27,7 @@ pub const ERROR_REGISTER: u16 = 0x1001;
 pub const ERROR_HISTORY: u16 = 0x1003;
 /// Index of the EMCY COB-ID.
 pub const COB_ID_EMCY: u16 = 0x1014;
-/// The "error reset / no error" code.
-pub const NO_ERROR: u16 = 0x0000;
+pub use crate::wire::emcy::NO_ERROR;
 /// 1001h bit 0: generic error, set while any error condition is active.
 pub const GENERIC: u8 = 0x01;
 /// 1001h bit 4: communication error (error passive, bus-off).
@@ -77,13 +77,6 @@ impl Emcy {
     }
 }
 
-/// The 8 data bytes of an EMCY frame: error code (LSB first), error register, five
-/// manufacturer-specific bytes (unused by every manual: 00h).
-pub const fn frame_data(code: u16, register: u8) -> [u8; 8] {
-    let c = code.to_le_bytes();
-    [c[0], c[1], register, 0, 0, 0, 0, 0]
-}
-
 /// Sets or clears the error condition `code` (for example FF15h, 8120h).
 ///
 /// On a rising condition the node sends one EMCY with `code`, sets `register_bits` in 1001h
@@ -128,7 +121,7 @@ fn emit(core: &mut Core, code: u16, register: u8) {
         }
         state if state.emcy_allowed() => {
             if let Some(id) = cob_id(core) {
-                core.out.send(Frame::new(id, &frame_data(code, register)));
+                core.out.send(Frame::new(id, &EmcyMessage::new(code, register).emit()));
             }
         }
         _ => {}

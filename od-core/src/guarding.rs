@@ -14,6 +14,7 @@ use crate::abort::Abort;
 use crate::frame::Frame;
 use crate::node::Core;
 use crate::time::Instant;
+use crate::wire::nmt::ErrorControl;
 
 /// Index of the guard time.
 pub const GUARD_TIME: u16 = 0x100C;
@@ -69,8 +70,8 @@ pub fn on_rtr(core: &mut Core, frame: &Frame, now: Instant) {
     if !frame.rtr || core.heartbeat.active() {
         return;
     }
-    let toggle = if core.guarding.toggle { 0x80 } else { 0 };
-    core.out.send(Frame::std(0x700 + core.node_id as u16, &[toggle | core.nmt.code()]));
+    let message = ErrorControl { state: core.nmt.code(), toggle: core.guarding.toggle };
+    core.out.send(Frame::std(0x700 + core.node_id as u16, &message.emit()));
     let g = &mut core.guarding;
     g.toggle = !g.toggle;
     g.event = false;

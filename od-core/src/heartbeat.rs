@@ -11,6 +11,7 @@ use crate::frame::Frame;
 use crate::guarding;
 use crate::node::Core;
 use crate::time::{Duration, Instant};
+use crate::wire::nmt::ErrorControl;
 
 /// Index of the producer heartbeat time.
 pub const PRODUCER_TIME: u16 = 0x1017;
@@ -60,7 +61,8 @@ pub fn poll(core: &mut Core, now: Instant) {
     if now < due {
         return;
     }
-    core.out.send(Frame::std(0x700 + core.node_id as u16, &[core.nmt.code()]));
+    let message = ErrorControl { state: core.nmt.code(), toggle: false };
+    core.out.send(Frame::std(0x700 + core.node_id as u16, &message.emit()));
     // Keep the period's phase; a shell that polled far too late restarts it instead of
     // sending a burst.
     let period = core.heartbeat.period();

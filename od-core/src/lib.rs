@@ -23,6 +23,7 @@ pub mod pdo;
 pub mod sdo;
 pub mod storage;
 pub mod time;
+pub mod wire;
 
 pub use abort::Abort;
 pub use bitrate::Bitrate;

@@ -18,6 +18,7 @@ use crate::pdo::{self, PdoEvent, Pdos};
 use crate::sdo::{ObjectAccess, SdoServer, Written};
 use crate::storage::{self, Image, Loaded, Record, Storage};
 use crate::time::{earliest, Instant};
+use crate::wire::nmt::{self as nmt_wire, ErrorControl};
 
 /// Something the shell must do for the node.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -323,7 +324,7 @@ impl<D: Device> Node<D> {
         let id = self.core.node_id as u16;
         match frame.id {
             CanId::Std(0) => {
-                if let Some(req) = NmtRequest::parse(frame) {
+                if let Some(req) = NmtRequest::parse(frame.payload()) {
                     if req.addresses(self.core.node_id) {
                         self.on_nmt(req.command, now);
                     }
@@ -504,7 +505,8 @@ impl<D: Device> Node<D> {
     }
 
     fn boot_up(&mut self, now: Instant) {
-        self.core.out.send(Frame::std(0x700 + self.core.node_id as u16, &[0x00]));
+        let boot_up = ErrorControl { state: nmt_wire::BOOT_UP, toggle: false };
+        self.core.out.send(Frame::std(0x700 + self.core.node_id as u16, &boot_up.emit()));
         self.core.nmt = NmtState::PreOperational;
         heartbeat::reset(&mut self.core, now);
         guarding::reset(&mut self.core);
@@ -531,6 +533,18 @@ impl<D: Device> ObjectAccess for Dict<'_, D> {
         self.core.od.check_read(pos)?;
         emcy::check_read(self.core, index, sub)?;
         Ok(self.core.od.entry(pos).size())
+    }
+
+    #[inline]
+    fn read_short(&mut self, index: u16, sub: u8) -> Result<Option<([u8; 4], usize)>, Abort> {
+        let pos = self.core.od.find(index, sub)?;
+        self.core.od.check_read(pos)?;
+        emcy::check_read(self.core, index, sub)?;
+        let e = self.core.od.entry(pos);
+        if matches!(e.default, crate::od::Default::Str(_)) {
+            return Ok(None);
+        }
+        Ok(Some((self.core.od.get(pos).to_le_bytes(), e.dtype.size())))
     }
 
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort> {
