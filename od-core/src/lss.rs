@@ -13,18 +13,16 @@
 //! switching an unconfigured node back to LSS waiting (CiA 305). Activate bit timing switches
 //! to the pending bit rate after delay d1 and, after d2, restarts communication on it with a
 //! boot-up (the manuals). The bit-rate code the pending entry holds is the device's
-//! ([`crate::node::Device::bitrate_codes`]), not the CiA 305 table index.
+//! ([`crate::device::Device::bitrate_codes`]), not the CiA 305 table index.
 //!
 //! The messages are [`crate::wire::lss`]'s [`Request`]s and [`Response`]s; this module is the
 //! slave's state machine over them. Every decision the manuals leave open is in
 //! `docs/decisions.md`, section "LSS".
 
 use crate::bitrate::Bitrate;
+use crate::context::{Context, Output};
 use crate::frame::Frame;
-use crate::nmt::NmtState;
-use crate::node::{Core, Output};
 use crate::od::{CoreHook, GroupMask, Od};
-use crate::storage;
 use crate::time::{Duration, Instant};
 
 pub use crate::wire::lss::{
@@ -40,6 +38,9 @@ pub const UNCONFIGURED: u8 = 0xFF;
 pub enum LssEvent {
     /// Nothing beyond the outputs already queued.
     None,
+    /// An activate bit timing started: the node leaves the bus (NMT INITIALISATION, no
+    /// service sends) until its boot-up on the new rate.
+    Switching,
     /// Reset communication (NMT 82h semantics: the pending node-ID and bit rate become
     /// active, boot-up follows): an unconfigured node got a node-ID and was switched back to
     /// LSS waiting.
@@ -142,15 +143,250 @@ fn rate_of(codes: &[(u32, Bitrate)], code: u32) -> Option<Bitrate> {
     codes.iter().find(|(c, _)| *c == code).map(|(_, b)| *b)
 }
 
-/// The pending node-ID (what the next reset activates).
-fn pending_node_id(core: &Core) -> u8 {
-    core.od.get(core.lss.pending_node_id) as u8
-}
+impl Lss {
+    /// The pending node-ID (what the next reset activates).
+    fn pending_node_id(&self, ctx: &Context) -> u8 {
+        ctx.od.get(self.pending_node_id) as u8
+    }
 
-/// Does the node have no valid node-ID, neither active nor pending (CiA 305
-/// "non-configured")? Only such a node takes part in Fastscan and answers 4Ch.
-fn non_configured(core: &Core) -> bool {
-    !core.configured() && !(1..=127).contains(&pending_node_id(core))
+    /// Does the node have no valid node-ID, neither active nor pending (CiA 305
+    /// "non-configured")? Only such a node takes part in Fastscan and answers 4Ch.
+    fn non_configured(&self, ctx: &Context) -> bool {
+        !ctx.configured() && !(1..=127).contains(&self.pending_node_id(ctx))
+    }
+
+    fn send(&mut self, ctx: &mut Context, response: Response) {
+        ctx.out.send(Frame::std(TX_ID, &response.emit()));
+    }
+
+    /// Switch state global. True when the node must now activate its pending node-ID: CiA 305
+    /// has a node without a node-ID that got one activate it on its own when switched back to
+    /// waiting (no NMT command can reach it); a configured node waits for NMT reset communication.
+    fn switch_global(&mut self, ctx: &mut Context, to: LssState) -> bool {
+        let was = self.state;
+        match to {
+            LssState::Configuration => {
+                self.state = LssState::Configuration;
+                false
+            }
+            LssState::Waiting => {
+                self.enter_waiting();
+                was == LssState::Configuration && !ctx.configured() && (1..=127).contains(&self.pending_node_id(ctx))
+            }
+        }
+    }
+
+    /// Handles a frame on 7E5h. Requests the LSS state does not allow, and malformed frames, are
+    /// ignored without an answer (the manuals' Table 10; CiA 305 has no error answer for them).
+    /// During an activate bit timing only switch state global, which has no answer, is handled.
+    pub fn on_frame(&mut self, ctx: &mut Context, frame: &Frame, now: Instant) -> LssEvent {
+        if !self.enabled {
+            return LssEvent::None;
+        }
+        let Some(request) = Request::parse(frame.payload()) else {
+            return LssEvent::None;
+        };
+        if let Request::SwitchStateGlobal(to) = request {
+            let activate = self.switch_global(ctx, to);
+            return match self.switch.as_mut() {
+                // During a bit-rate switch the activation waits for its end.
+                Some(s) => {
+                    s.activate |= activate;
+                    LssEvent::None
+                }
+                None if activate => LssEvent::ResetCommunication,
+                None => LssEvent::None,
+            };
+        }
+        if self.switching() {
+            return LssEvent::None;
+        }
+        match (self.state, request) {
+            (LssState::Waiting, Request::SwitchStateSelective { part, value }) => {
+                self.switch_selective(ctx, part, value)
+            }
+            (_, Request::IdentifyRemoteSlave { step, value }) => self.identify(ctx, step, value),
+            (_, Request::IdentifyNonConfiguredRemoteSlave) if self.non_configured(ctx) => {
+                self.send(ctx, Response::IdentifyNonConfiguredSlave)
+            }
+            (LssState::Waiting, Request::Fastscan { id, bit_checked, sub, next }) => {
+                self.fastscan(ctx, id, bit_checked, sub, next)
+            }
+            (LssState::Configuration, Request::ConfigureNodeId(id)) => {
+                // 1..127, or FFh to make the node unconfigured (CiA 305).
+                let error = if (1..=127).contains(&id) || id == UNCONFIGURED {
+                    let pos = self.pending_node_id;
+                    ctx.od.set(pos, id as u32);
+                    error::OK
+                } else {
+                    error::OUT_OF_RANGE
+                };
+                self.send(ctx, Response::ConfigureNodeId { error, spec: 0 });
+            }
+            (LssState::Configuration, Request::ConfigureBitTiming { selector, index }) => {
+                // Only the CiA table (selector 0), and only the rates the device codes: index 5
+                // (100 kbit/s, "reserved"), 8 (10 kbit/s) and 9 (automatic) have no code.
+                let code = match selector {
+                    0 => Bitrate::from_cia_index(index).and_then(|rate| code_of(self.codes, rate)),
+                    _ => None,
+                };
+                let error = match code {
+                    Some(code) => {
+                        let pos = self.pending_bitrate;
+                        ctx.od.set(pos, code);
+                        error::OK
+                    }
+                    None => error::OUT_OF_RANGE,
+                };
+                self.send(ctx, Response::ConfigureBitTiming { error, spec: 0 });
+            }
+            // Not while a store waits for the shell: its answer would fall into the silence.
+            (LssState::Configuration, Request::ActivateBitTiming { delay_ms }) if !ctx.storage.saving() => {
+                let delay = Duration::from_millis(delay_ms as u64);
+                self.switch = Some(Switch {
+                    adopt_at: now + delay,
+                    boot_at: now + delay.times(2),
+                    adopted: false,
+                    activate: false,
+                });
+                // The node leaves the bus until its boot-up on the new rate: no service sends.
+                return LssEvent::Switching;
+            }
+            // A repeated request gets the one answer when the shell is done.
+            (LssState::Configuration, Request::StoreConfiguration) if !self.storing => {
+                if ctx.request_store(GroupMask::LSS).is_ok() {
+                    self.storing = true;
+                } else {
+                    // A 1010h save is under way: this store cannot start.
+                    self.send(ctx, Response::StoreConfiguration { error: error::STORE_FAILED, spec: 0 });
+                }
+            }
+            (LssState::Configuration, Request::InquireIdentity(part)) => {
+                let value = part_value(&ctx.od, part);
+                self.send(ctx, Response::InquireIdentity { part, value });
+            }
+            (LssState::Configuration, Request::InquireNodeId) => {
+                let id = ctx.node_id;
+                self.send(ctx, Response::InquireNodeId(id));
+            }
+            // Selective and Fastscan in configuration, configuration services in waiting, and the
+            // refused cases above.
+            _ => {}
+        }
+        LssEvent::None
+    }
+
+    /// Switch state selective: the four parts must come in order and all match (CiA 305).
+    fn switch_selective(&mut self, ctx: &mut Context, part: Part, value: u32) {
+        let lss = &mut *self;
+        let expected = if part == Part::Vendor { 0 } else { lss.selective };
+        if part.index() != expected || part_value(&ctx.od, part) != value {
+            lss.selective = 0;
+            return;
+        }
+        if part == Part::Serial {
+            lss.selective = 0;
+            lss.state = LssState::Configuration;
+            self.send(ctx, Response::SwitchStateSelective);
+        } else {
+            lss.selective = expected + 1;
+        }
+    }
+
+    /// Identify remote slave: vendor and product equal, revision and serial within the bounds,
+    /// six steps in order; a slave that passed all answers 4Fh (CiA 305).
+    fn identify(&mut self, ctx: &mut Context, step: IdentifyStep, value: u32) {
+        let expected = if step == IdentifyStep::Vendor { 0 } else { self.identify };
+        if step.index() != expected || !step.matches(&address(&ctx.od), value) {
+            self.identify = 0;
+            return;
+        }
+        if step == IdentifyStep::SerialHigh {
+            self.identify = 0;
+            self.send(ctx, Response::IdentifySlave);
+        } else {
+            self.identify = expected + 1;
+        }
+    }
+
+    /// LSS Fastscan (CiA 305): only non-configured slaves in LSS waiting take part. BitChecked
+    /// 80h resets LSSPos and is confirmed by every such slave. Otherwise a slave whose LSSPos is
+    /// LSSSub and whose address part equals IDNumber in bits 31..BitChecked confirms and moves
+    /// LSSPos to LSSNext; after the last bit (BitChecked 0) of the last part (LSSNext < LSSSub)
+    /// it enters LSS configuration.
+    fn fastscan(&mut self, ctx: &mut Context, id: u32, bit_checked: u8, sub: Part, next: Part) {
+        if !self.non_configured(ctx) {
+            return;
+        }
+        if bit_checked == FASTSCAN_RESET {
+            self.fastscan_pos = Part::Vendor;
+        } else {
+            // `parse` guarantees bit_checked <= 31.
+            let mask = u32::MAX << bit_checked;
+            if self.fastscan_pos != sub || (part_value(&ctx.od, sub) ^ id) & mask != 0 {
+                return;
+            }
+            self.fastscan_pos = next;
+            if bit_checked == 0 && next.index() < sub.index() {
+                self.state = LssState::Configuration;
+            }
+        }
+        self.send(ctx, Response::IdentifySlave);
+    }
+
+    /// Runs the activate bit timing delays: after d1 the node switches to the pending rate
+    /// ([`Output::SetBitrate`]); after d2 it asks for its boot-up on the new rate
+    /// ([`LssEvent::BootUp`], or [`LssEvent::ResetCommunication`] for an unconfigured node
+    /// switched to LSS waiting meanwhile).
+    pub fn poll(&mut self, ctx: &mut Context, now: Instant) -> LssEvent {
+        let Some(switch) = self.switch.as_mut() else {
+            return LssEvent::None;
+        };
+        if !switch.adopted && now >= switch.adopt_at {
+            switch.adopted = true;
+            let code = ctx.od.get(self.pending_bitrate);
+            if let Some(rate) = rate_of(self.codes, code) {
+                ctx.bitrate = rate;
+                ctx.out.push(Output::SetBitrate(rate));
+            }
+        }
+        match self.switch {
+            Some(s) if s.adopted && now >= s.boot_at => {
+                self.switch = None;
+                if s.activate {
+                    LssEvent::ResetCommunication
+                } else {
+                    LssEvent::BootUp
+                }
+            }
+            _ => LssEvent::None,
+        }
+    }
+
+    /// When the next LSS delay ends.
+    pub fn next_deadline(&self) -> Option<Instant> {
+        self.switch.map(|s| if s.adopted { s.boot_at } else { s.adopt_at })
+    }
+
+    /// After an NMT reset (or the one LSS asked for): the slave starts again in LSS waiting
+    /// (CiA 305, and the manuals: "After starting, the device will be in the LSS waiting state").
+    /// A store under way still gets its answer.
+    pub fn reset(&mut self) {
+        self.enter_waiting();
+        self.switch = None;
+    }
+
+    /// The shell finished a store. Returns false if LSS did not ask for it (the SDO server did);
+    /// otherwise answers store configuration: 00h on success, 02h "error occurred during storing".
+    pub fn store_done(&mut self, ctx: &mut Context, ok: bool) -> bool {
+        if !self.storing {
+            return false;
+        }
+        self.storing = false;
+        let error = if ok { error::OK } else { error::STORE_FAILED };
+        self.send(ctx, Response::StoreConfiguration { error, spec: 0 });
+        true
+    }
 }
 
 /// A part's value in the dictionary (1018h sub 1..4); 0 if not declared.
@@ -161,231 +397,4 @@ fn part_value(od: &Od, part: Part) -> u32 {
 /// The LSS address: 1018h sub 1..4.
 fn address(od: &Od) -> [u32; 4] {
     Part::ALL.map(|p| part_value(od, p))
-}
-
-fn send(core: &mut Core, response: Response) {
-    core.out.send(Frame::std(TX_ID, &response.emit()));
-}
-
-/// Switch state global. True when the node must now activate its pending node-ID: CiA 305
-/// has a node without a node-ID that got one activate it on its own when switched back to
-/// waiting (no NMT command can reach it); a configured node waits for NMT reset communication.
-fn switch_global(core: &mut Core, to: LssState) -> bool {
-    let was = core.lss.state;
-    match to {
-        LssState::Configuration => {
-            core.lss.state = LssState::Configuration;
-            false
-        }
-        LssState::Waiting => {
-            core.lss.enter_waiting();
-            was == LssState::Configuration && !core.configured() && (1..=127).contains(&pending_node_id(core))
-        }
-    }
-}
-
-/// Handles a frame on 7E5h. Requests the LSS state does not allow, and malformed frames, are
-/// ignored without an answer (the manuals' Table 10; CiA 305 has no error answer for them).
-/// During an activate bit timing only switch state global, which has no answer, is handled.
-pub fn on_frame(core: &mut Core, frame: &Frame, now: Instant) -> LssEvent {
-    if !core.lss.enabled {
-        return LssEvent::None;
-    }
-    let Some(request) = Request::parse(frame.payload()) else {
-        return LssEvent::None;
-    };
-    if let Request::SwitchStateGlobal(to) = request {
-        let activate = switch_global(core, to);
-        return match core.lss.switch.as_mut() {
-            // During a bit-rate switch the activation waits for its end.
-            Some(s) => {
-                s.activate |= activate;
-                LssEvent::None
-            }
-            None if activate => LssEvent::ResetCommunication,
-            None => LssEvent::None,
-        };
-    }
-    if core.lss.switching() {
-        return LssEvent::None;
-    }
-    match (core.lss.state, request) {
-        (LssState::Waiting, Request::SwitchStateSelective { part, value }) => switch_selective(core, part, value),
-        (_, Request::IdentifyRemoteSlave { step, value }) => identify(core, step, value),
-        (_, Request::IdentifyNonConfiguredRemoteSlave) if non_configured(core) => {
-            send(core, Response::IdentifyNonConfiguredSlave)
-        }
-        (LssState::Waiting, Request::Fastscan { id, bit_checked, sub, next }) => {
-            fastscan(core, id, bit_checked, sub, next)
-        }
-        (LssState::Configuration, Request::ConfigureNodeId(id)) => {
-            // 1..127, or FFh to make the node unconfigured (CiA 305).
-            let error = if (1..=127).contains(&id) || id == UNCONFIGURED {
-                let pos = core.lss.pending_node_id;
-                core.od.set(pos, id as u32);
-                error::OK
-            } else {
-                error::OUT_OF_RANGE
-            };
-            send(core, Response::ConfigureNodeId { error, spec: 0 });
-        }
-        (LssState::Configuration, Request::ConfigureBitTiming { selector, index }) => {
-            // Only the CiA table (selector 0), and only the rates the device codes: index 5
-            // (100 kbit/s, "reserved"), 8 (10 kbit/s) and 9 (automatic) have no code.
-            let code = match selector {
-                0 => Bitrate::from_cia_index(index).and_then(|rate| code_of(core.lss.codes, rate)),
-                _ => None,
-            };
-            let error = match code {
-                Some(code) => {
-                    let pos = core.lss.pending_bitrate;
-                    core.od.set(pos, code);
-                    error::OK
-                }
-                None => error::OUT_OF_RANGE,
-            };
-            send(core, Response::ConfigureBitTiming { error, spec: 0 });
-        }
-        // Not while a store waits for the shell: its answer would fall into the silence.
-        (LssState::Configuration, Request::ActivateBitTiming { delay_ms }) if !core.storage.saving() => {
-            let delay = Duration::from_millis(delay_ms as u64);
-            core.lss.switch =
-                Some(Switch { adopt_at: now + delay, boot_at: now + delay.times(2), adopted: false, activate: false });
-            // The node leaves the bus until its boot-up on the new rate: no service sends.
-            core.nmt = NmtState::Initialising;
-        }
-        // A repeated request gets the one answer when the shell is done.
-        (LssState::Configuration, Request::StoreConfiguration) if !core.lss.storing => {
-            if storage::request(core, GroupMask::LSS).is_ok() {
-                core.lss.storing = true;
-            } else {
-                // A 1010h save is under way: this store cannot start.
-                send(core, Response::StoreConfiguration { error: error::STORE_FAILED, spec: 0 });
-            }
-        }
-        (LssState::Configuration, Request::InquireIdentity(part)) => {
-            let value = part_value(&core.od, part);
-            send(core, Response::InquireIdentity { part, value });
-        }
-        (LssState::Configuration, Request::InquireNodeId) => {
-            let id = core.node_id;
-            send(core, Response::InquireNodeId(id));
-        }
-        // Selective and Fastscan in configuration, configuration services in waiting, and the
-        // refused cases above.
-        _ => {}
-    }
-    LssEvent::None
-}
-
-/// Switch state selective: the four parts must come in order and all match (CiA 305).
-fn switch_selective(core: &mut Core, part: Part, value: u32) {
-    let lss = &mut core.lss;
-    let expected = if part == Part::Vendor { 0 } else { lss.selective };
-    if part.index() != expected || part_value(&core.od, part) != value {
-        lss.selective = 0;
-        return;
-    }
-    if part == Part::Serial {
-        lss.selective = 0;
-        lss.state = LssState::Configuration;
-        send(core, Response::SwitchStateSelective);
-    } else {
-        lss.selective = expected + 1;
-    }
-}
-
-/// Identify remote slave: vendor and product equal, revision and serial within the bounds,
-/// six steps in order; a slave that passed all answers 4Fh (CiA 305).
-fn identify(core: &mut Core, step: IdentifyStep, value: u32) {
-    let expected = if step == IdentifyStep::Vendor { 0 } else { core.lss.identify };
-    if step.index() != expected || !step.matches(&address(&core.od), value) {
-        core.lss.identify = 0;
-        return;
-    }
-    if step == IdentifyStep::SerialHigh {
-        core.lss.identify = 0;
-        send(core, Response::IdentifySlave);
-    } else {
-        core.lss.identify = expected + 1;
-    }
-}
-
-/// LSS Fastscan (CiA 305): only non-configured slaves in LSS waiting take part. BitChecked
-/// 80h resets LSSPos and is confirmed by every such slave. Otherwise a slave whose LSSPos is
-/// LSSSub and whose address part equals IDNumber in bits 31..BitChecked confirms and moves
-/// LSSPos to LSSNext; after the last bit (BitChecked 0) of the last part (LSSNext < LSSSub)
-/// it enters LSS configuration.
-fn fastscan(core: &mut Core, id: u32, bit_checked: u8, sub: Part, next: Part) {
-    if !non_configured(core) {
-        return;
-    }
-    if bit_checked == FASTSCAN_RESET {
-        core.lss.fastscan_pos = Part::Vendor;
-    } else {
-        // `parse` guarantees bit_checked <= 31.
-        let mask = u32::MAX << bit_checked;
-        if core.lss.fastscan_pos != sub || (part_value(&core.od, sub) ^ id) & mask != 0 {
-            return;
-        }
-        core.lss.fastscan_pos = next;
-        if bit_checked == 0 && next.index() < sub.index() {
-            core.lss.state = LssState::Configuration;
-        }
-    }
-    send(core, Response::IdentifySlave);
-}
-
-/// Runs the activate bit timing delays: after d1 the node switches to the pending rate
-/// ([`Output::SetBitrate`]); after d2 it asks for its boot-up on the new rate
-/// ([`LssEvent::BootUp`], or [`LssEvent::ResetCommunication`] for an unconfigured node
-/// switched to LSS waiting meanwhile).
-pub fn poll(core: &mut Core, now: Instant) -> LssEvent {
-    let Some(switch) = core.lss.switch.as_mut() else {
-        return LssEvent::None;
-    };
-    if !switch.adopted && now >= switch.adopt_at {
-        switch.adopted = true;
-        let code = core.od.get(core.lss.pending_bitrate);
-        if let Some(rate) = rate_of(core.lss.codes, code) {
-            core.bitrate = rate;
-            core.out.push(Output::SetBitrate(rate));
-        }
-    }
-    match core.lss.switch {
-        Some(s) if s.adopted && now >= s.boot_at => {
-            core.lss.switch = None;
-            if s.activate {
-                LssEvent::ResetCommunication
-            } else {
-                LssEvent::BootUp
-            }
-        }
-        _ => LssEvent::None,
-    }
-}
-
-/// When the next LSS delay ends.
-pub fn next_deadline(core: &Core) -> Option<Instant> {
-    core.lss.switch.map(|s| if s.adopted { s.boot_at } else { s.adopt_at })
-}
-
-/// After an NMT reset (or the one LSS asked for): the slave starts again in LSS waiting
-/// (CiA 305, and the manuals: "After starting, the device will be in the LSS waiting state").
-/// A store under way still gets its answer.
-pub fn reset(core: &mut Core) {
-    core.lss.enter_waiting();
-    core.lss.switch = None;
-}
-
-/// The shell finished a store. Returns false if LSS did not ask for it (the SDO server did);
-/// otherwise answers store configuration: 00h on success, 02h "error occurred during storing".
-pub fn store_done(core: &mut Core, ok: bool) -> bool {
-    if !core.lss.storing {
-        return false;
-    }
-    core.lss.storing = false;
-    let error = if ok { error::OK } else { error::STORE_FAILED };
-    send(core, Response::StoreConfiguration { error, spec: 0 });
-    true
 }

@@ -11,15 +11,7 @@ use crate::abort::Abort;
 use crate::time::{Duration, Instant};
 use crate::wire::sdo::{ClientRequest, Initiate, ServerResponse};
 
-/// The result of a successful write.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum Written {
-    /// Done: confirm now.
-    Done,
-    /// The value was accepted but the confirmation waits for the shell (a 1010h "save"):
-    /// the server answers when [`SdoServer::complete_deferred`] is called.
-    Deferred,
-}
+pub use crate::context::Written;
 
 /// What the SDO server needs from the node: read and write by (index, sub).
 pub trait ObjectAccess {

@@ -18,7 +18,7 @@
 use std::hint::black_box;
 
 use od_core::node::{Node, Output};
-use od_core::{heartbeat, Bitrate, Frame, Instant};
+use od_core::{Bitrate, Frame, Instant};
 use tests_host::TableOnly;
 
 fn main() {
@@ -26,13 +26,8 @@ fn main() {
     let mut node = Node::new(TableOnly(od_core::devices::sgh10::TABLE), 1, Bitrate::K500);
     node.poll(Instant::ZERO);
     node.on_frame(&Frame::std(0, &[0x01, 0x01]), Instant::ZERO);
-    {
-        let core = node.split().1;
-        // What an SDO download of 1017h = 1000 does.
-        let pos = core.od.pos(0x1017, 0).expect("1017h declared");
-        heartbeat::on_write(core, 1000, Instant::ZERO).expect("valid period");
-        core.od.set(pos, 1000);
-    }
+    // What an SDO download of 1017h = 1000 does.
+    node.write(0x1017, 0, &1000u16.to_le_bytes(), Instant::ZERO).expect("valid period");
     while node.next_output().is_some_and(|o| matches!(o, Output::Frame(_))) {}
     let idle = Instant::from_micros(500);
     assert!(node.next_deadline().is_some_and(|t| t > idle), "something is due");

@@ -15,7 +15,7 @@
 
 use std::fmt::Write;
 
-use od_core::node::Device;
+use od_core::node::{CanopenDevice, Device};
 use od_core::od::{Access, DataType, Default, Entry, Kind};
 use od_core::Bitrate;
 
