@@ -150,3 +150,90 @@ impl<D: Device, S: Services> ObjectAccess for Access<'_, D, S> {
         write(self.ctx, self.device, self.services, index, sub, data, now)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bitrate::Bitrate;
+    use crate::device::Link;
+    use crate::od::{Access::*, DataType::*, Entry};
+    use crate::storage::{self, Loaded};
+
+    static T: &[Entry] = &[
+        Entry::array(0x1010, "Store parameters", 1, Const),
+        Entry::member(0x1010, 1, "Save all parameters", Unsigned32, Rw, 1).hook(Hook::Core(CoreHook::Store)),
+        Entry::var(0x1017, "Producer heartbeat time", Unsigned16, Rw, 0).hook(Hook::Core(CoreHook::HeartbeatTime)),
+        Entry::var(0x2000, "Linked", Unsigned16, Rw, 0).hook(Hook::Device(1)),
+        Entry::var(0x2001, "Plain", Unsigned8, Rw, 0),
+    ];
+
+    /// A device whose 2000h is linked to 1017h under the heartbeat rule.
+    struct Dev {
+        writes: u32,
+    }
+    impl Device for Dev {
+        fn table(&self) -> &'static [crate::od::Entry] {
+            T
+        }
+        fn link(&self, e: &Entry) -> Option<Link> {
+            (e.index == 0x2000).then_some(Link { index: 0x1017, sub: 0, hook: CoreHook::HeartbeatTime })
+        }
+        fn on_write(&mut self, _: &mut Context, _: usize, _: u32, _: Instant) -> Result<(), Abort> {
+            self.writes += 1;
+            Ok(())
+        }
+    }
+
+    /// A transport whose one rule refuses 1..9 and records what it accepted.
+    #[derive(Default)]
+    struct Rules {
+        seen: heapless::Vec<(CoreHook, u32), 4>,
+    }
+    impl Services for Rules {
+        fn write(
+            &mut self,
+            _: &mut Context,
+            hook: CoreHook,
+            _: usize,
+            value: u32,
+            _: Instant,
+        ) -> Result<Written, Abort> {
+            if (1..10).contains(&value) {
+                return Err(Abort::INVALID_VALUE);
+            }
+            self.seen.push((hook, value)).unwrap();
+            Ok(Written::Done)
+        }
+    }
+
+    fn ctx() -> Context {
+        let (od, storage, _) = storage::power_on(T, &Loaded::Blank, 1);
+        Context::new(od, storage, 1, Bitrate::K500)
+    }
+
+    #[test]
+    fn links_run_the_linked_rule_first_and_store_both() {
+        let (mut c, mut d, mut r) = (ctx(), Dev { writes: 0 }, Rules::default());
+        let now = Instant::ZERO;
+        assert_eq!(write(&mut c, &mut d, &mut r, 0x2000, 0, &[5, 0], now), Err(Abort::INVALID_VALUE));
+        assert_eq!((c.od.value(0x2000, 0), c.od.value(0x1017, 0), d.writes), (Some(0), Some(0), 0), "refused whole");
+        assert_eq!(write(&mut c, &mut d, &mut r, 0x2000, 0, &[100, 0], now), Ok(Written::Done));
+        assert_eq!((c.od.value(0x2000, 0), c.od.value(0x1017, 0), d.writes), (Some(100), Some(100), 1));
+        assert_eq!(r.seen.as_slice(), &[(CoreHook::HeartbeatTime, 100)]);
+        assert_eq!(write(&mut c, &mut d, &mut r, 0x2001, 0, &[7], now), Ok(Written::Done));
+        assert_eq!(r.seen.len(), 1, "no hook, no rule");
+    }
+
+    #[test]
+    fn save_is_a_command_not_a_value() {
+        let (mut c, mut d, mut r) = (ctx(), Dev { writes: 0 }, Rules::default());
+        let now = Instant::ZERO;
+        assert_eq!(write(&mut c, &mut d, &mut r, 0x1010, 1, b"save", now), Ok(Written::Deferred));
+        assert_eq!(c.od.value(0x1010, 1), Some(1), "still reads its capabilities");
+        assert_eq!(c.out.pop(), Some(crate::context::Output::Store(crate::od::GroupMask::ALL)));
+        assert_eq!(write(&mut c, &mut d, &mut r, 0x1010, 1, b"save", now), Err(Abort::DEVICE_STATE));
+        assert_eq!(write(&mut c, &mut d, &mut r, 0x3000, 0, &[1], now), Err(Abort::NO_OBJECT));
+        assert_eq!(read_short(&c, 0x1017, 0), Ok(Some(([0, 0, 0, 0], 2))));
+        assert!(r.seen.is_empty());
+    }
+}

@@ -27,8 +27,9 @@ pub const GENERIC: u8 = 0x01;
 /// codes per device.
 pub const MAX_ACTIVE: usize = 16;
 /// Most announcements waiting for the transport to take them. The transport takes them after
-/// every call into the node; one call changes at most [`MAX_ACTIVE`] conditions.
-pub const MAX_ANNOUNCED: usize = 2 * MAX_ACTIVE;
+/// every call into the node, and one call changes each condition at most once (a device
+/// reports at most [`MAX_ACTIVE`]).
+pub const MAX_ANNOUNCED: usize = MAX_ACTIVE;
 
 /// One active error condition: its code and the 1001h bits it sets.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]

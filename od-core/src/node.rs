@@ -545,3 +545,43 @@ impl<D: CanopenDevice> DeviceStation for Node<D> {
         (&mut self.device, &mut self.ctx)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::devices::sgh10;
+
+    struct T;
+    impl Device for T {
+        fn table(&self) -> &'static [crate::od::Entry] {
+            sgh10::TABLE
+        }
+    }
+    impl CanopenDevice for T {}
+
+    fn rtr(node: &mut Node<T>, ms: u64) -> Option<u8> {
+        node.on_frame(&Frame::remote(CanId::Std(0x701), 1), Instant::from_millis(ms));
+        match node.next_output() {
+            Some(Output::Frame(f)) => Some(f.data[0]),
+            _ => None,
+        }
+    }
+
+    /// The node passes the heartbeat's state to guarding: one error-control protocol at a time.
+    #[test]
+    fn heartbeat_excludes_guarding() {
+        let mut node = Node::new(T, 1, Bitrate::K500);
+        node.poll(Instant::ZERO);
+        node.next_output();
+        let at = Instant::from_millis;
+        node.write(0x100C, 0, &100u16.to_le_bytes(), at(0)).unwrap();
+        node.write(0x100D, 0, &[2], at(0)).unwrap();
+        assert_eq!(rtr(&mut node, 0), Some(0x7F));
+        assert_eq!(node.guarding().next_deadline(), Some(at(200)));
+        node.write(0x1017, 0, &1000u16.to_le_bytes(), at(5)).unwrap();
+        assert_eq!(node.guarding().next_deadline(), None);
+        assert_eq!(rtr(&mut node, 10), None);
+        node.write(0x1017, 0, &0u16.to_le_bytes(), at(20)).unwrap();
+        assert_eq!(rtr(&mut node, 30), Some(0xFF));
+    }
+}

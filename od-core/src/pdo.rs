@@ -4,8 +4,8 @@
 //! The configuration lives in the dictionary (1005h, 14xxh/16xxh, 18xxh/1Axxh); [`Pdos`]
 //! keeps a copy resolved for speed: identifiers as [`CanId`]s and every mapping as a list of
 //! (dictionary position, byte count), so a SYNC packs a TPDO without a dictionary search.
-//! The copy is taken at boot-up ([`reset`]) and kept current by the write rules
-//! ([`on_write`]), which every SDO write to a hooked PDO entry passes first.
+//! The copy is taken at boot-up ([`Pdos::reset`]) and kept current by the write rules
+//! ([`Pdos::on_write`]), which every SDO write to a hooked PDO entry passes first.
 //!
 //! Which transmission types a PDO accepts, when a COB-ID or a mapping may change and how the
 //! event timer behaves follow the SIKO manuals and CiA 301 as `docs/decisions.md`
