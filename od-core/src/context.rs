@@ -8,56 +8,11 @@
 use crate::abort::Abort;
 use crate::bitrate::Bitrate;
 use crate::errors::Errors;
-use crate::frame::Frame;
 use crate::od::{Entry, Group, GroupMask, Od};
 use crate::storage::{self, Parameters, Storage, LOAD, SAVE};
 use crate::time::Instant;
 
-/// Something the shell must do for the node.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum Output {
-    /// Put this frame on the bus.
-    Frame(Frame),
-    /// Persist the current values of these parameter groups, then report the result with
-    /// `store_done` ([`crate::shell::Station::store_done`]).
-    Store(GroupMask),
-    /// Switch the CAN controller to this bit rate now (the node sends and receives nothing
-    /// meanwhile).
-    SetBitrate(Bitrate),
-}
-
-/// How many outputs may wait for the shell. A node produces at most a handful per frame
-/// or tick; the shell drains the queue after each call.
-pub const OUTBOX_DEPTH: usize = 32;
-
-/// Outputs waiting for the shell.
-#[derive(Clone, Default)]
-pub struct Outbox {
-    q: heapless::Deque<Output, OUTBOX_DEPTH>,
-}
-
-impl Outbox {
-    /// Queues an output. When the shell has not drained the queue the oldest frame is kept
-    /// and the new one dropped, as a full CAN transmit mailbox would.
-    pub fn push(&mut self, out: Output) {
-        let _ = self.q.push_back(out);
-    }
-
-    /// Queues a frame.
-    pub fn send(&mut self, frame: Frame) {
-        self.push(Output::Frame(frame));
-    }
-
-    /// Takes the oldest output.
-    pub fn pop(&mut self) -> Option<Output> {
-        self.q.pop_front()
-    }
-
-    /// Nothing waiting?
-    pub fn is_empty(&self) -> bool {
-        self.q.is_empty()
-    }
-}
+pub use crate::output::{Outbox, Output, OUTBOX_DEPTH};
 
 /// Which reset the node performs (NMT 81h / 82h, power-on).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -172,7 +127,14 @@ impl Context {
     /// Calling it again with the same state does nothing. Code 0000h is ignored.
     pub fn set_error(&mut self, code: u16, register_bits: u8, active: bool, now: Instant) {
         let _ = now;
-        self.errors.set(&mut self.od, code, register_bits, active);
+        self.errors.set(&mut self.od, self.node_id, &mut self.out, code, register_bits, active);
+    }
+
+    /// Sends the announcements held while the gate was [`crate::errors::Gate::Defer`], if it
+    /// lets them through now (the CANopen node after its boot-up message).
+    #[inline]
+    pub fn release_deferred(&mut self) {
+        self.errors.release(&self.od, self.node_id, &mut self.out);
     }
 
     /// Asks the shell to persist `mask` ([`Output::Store`]); the result comes back through

@@ -11,18 +11,19 @@
 //! - after an NMT reset every condition still active is announced again after the boot-up;
 //! - no inhibit time: none of the manuals has 1015h.
 //!
-//! The node takes the context's announcements ([`Emcy::flush`]) after every call that may
-//! change a condition, with the NMT state they fell due in.
+//! The node sets the context's announcement gate from its NMT state ([`gate`]) and gives it
+//! the frame builder ([`frame`]); a condition's change is then sent, held or dropped at once.
 
 use crate::abort::Abort;
-use crate::context::{Context, Outbox};
+use crate::context::Context;
+use crate::errors::Gate;
 use crate::frame::{CanId, Frame};
 use crate::nmt::NmtState;
 use crate::od::Od;
 use crate::time::Instant;
 use crate::wire::emcy::EmcyMessage;
 
-pub use crate::errors::{ERROR_HISTORY, ERROR_REGISTER, GENERIC, MAX_ACTIVE};
+pub use crate::errors::{ERROR_HISTORY, ERROR_REGISTER, GENERIC, MAX_ACTIVE, MAX_DEFERRED};
 pub use crate::wire::emcy::NO_ERROR;
 
 /// Index of the EMCY COB-ID.
@@ -32,21 +33,9 @@ pub const COMMUNICATION: u8 = 0x10;
 /// 1001h bit 7: manufacturer-specific (the SIKO sensor errors).
 pub const MANUFACTURER: u8 = 0x80;
 
-/// Most EMCY frames waiting for the boot-up message.
-pub const MAX_DEFERRED: usize = 8;
-
 const VALID_BIT: u32 = 1 << 31;
 const RESERVED_BIT: u32 = 1 << 30;
 const EXTENDED_BIT: u32 = 1 << 29;
-
-/// EMCY producer state: the frames that fell due before the boot-up message.
-#[derive(Clone, Default)]
-pub struct Emcy {
-    /// (code, error register) of frames that fell due before the boot-up message.
-    deferred: heapless::Deque<(u16, u8), MAX_DEFERRED>,
-    /// `deferred` is not empty: one load for the idle tick.
-    waiting: bool,
-}
 
 /// Sets or clears the error condition `code`: [`Context::set_error`], kept here for the
 /// devices and tests that name the producer.
@@ -54,70 +43,24 @@ pub fn set_error(ctx: &mut Context, code: u16, register_bits: u8, active: bool, 
     ctx.set_error(code, register_bits, active, now);
 }
 
-impl Emcy {
-    /// Takes the context's announcements and sends, defers or drops each as `nmt` and 1014h
-    /// allow (`node_id` gives 1014h's default).
-    #[inline]
-    pub fn flush(&mut self, ctx: &mut Context, nmt: NmtState) {
-        if !ctx.errors.has_announcements() {
-            return;
-        }
-        while let Some((code, register)) = ctx.errors.take() {
-            self.emit(&ctx.od, &mut ctx.out, ctx.node_id, nmt, code, register);
-        }
-    }
-
-    /// Puts an EMCY on the bus, defers it to after the boot-up message, or drops it.
-    fn emit(&mut self, od: &Od, out: &mut Outbox, node_id: u8, nmt: NmtState, code: u16, register: u8) {
-        match nmt {
-            NmtState::Initialising => {
-                let _ = self.deferred.push_back((code, register));
-                self.waiting = true;
-            }
-            state if state.emcy_allowed() => {
-                if let Some(id) = cob_id(od, node_id) {
-                    out.send(Frame::new(id, &EmcyMessage::new(code, register).emit()));
-                }
-            }
-            _ => {}
-        }
-    }
-
-    /// Clears the producer's state after a reset communication: frames not yet sent are
-    /// dropped, and every condition still active is announced again after the boot-up message
-    /// (the condition persists; the master learns of it in the new session). 1001h keeps its
-    /// value; the 1003h history is a log and stays.
-    pub fn reset(&mut self, ctx: &Context) {
-        self.deferred.clear();
-        let register = ctx.errors.register();
-        for code in ctx.errors.active() {
-            let _ = self.deferred.push_back((code, register));
-        }
-        self.waiting = !self.deferred.is_empty();
-    }
-
-    /// Sends the EMCY frames deferred until the boot-up message (`nmt` is the state after it).
-    #[inline]
-    pub fn poll(&mut self, ctx: &mut Context, nmt: NmtState, now: Instant) {
-        let _ = now;
-        if !self.waiting || nmt == NmtState::Initialising {
-            return;
-        }
-        self.waiting = false;
-        while let Some((code, register)) = self.deferred.pop_front() {
-            self.emit(&ctx.od, &mut ctx.out, ctx.node_id, nmt, code, register);
-        }
+/// What an announcement does in NMT state `nmt`: sent in PRE-OPERATIONAL and OPERATIONAL,
+/// held until the boot-up message in INITIALISATION, dropped in STOPPED.
+pub const fn gate(nmt: NmtState) -> Gate {
+    match nmt {
+        NmtState::Initialising => Gate::Defer,
+        NmtState::PreOperational | NmtState::Operational => Gate::Send,
+        NmtState::Stopped => Gate::Drop,
     }
 }
 
-/// The identifier 1014h designates, `None` while its valid bit says "does not exist".
-fn cob_id(od: &Od, node_id: u8) -> Option<CanId> {
+/// The EMCY frame of (code, register) for node `node_id`: on the identifier 1014h designates,
+/// `None` while its valid bit says "does not exist". The node's [`crate::errors::Announce`].
+pub fn frame(od: &Od, node_id: u8, code: u16, register: u8) -> Option<Frame> {
     let raw = od.value(COB_ID_EMCY, 0).unwrap_or(0x80 + node_id as u32);
     if raw & VALID_BIT != 0 {
-        None
-    } else {
-        Some(CanId::from_cob_id(raw))
+        return None;
     }
+    Some(Frame::new(CanId::from_cob_id(raw), &EmcyMessage::new(code, register).emit()))
 }
 
 /// Checks a write to 1014h (entry `pos`) in NMT state `nmt`; on `Ok` the node stores the
@@ -163,15 +106,18 @@ mod tests {
     use crate::errors;
     use crate::storage::{self, Loaded};
 
-    /// The SGH10's dictionary in a context, node-ID 1: no device, no node.
-    fn ctx() -> Context {
+    /// The SGH10's dictionary in a context, node-ID 1, announcing EMCYs as a CANopen node in
+    /// `nmt` does: no device, no node.
+    fn ctx(nmt: NmtState) -> Context {
         let (od, storage, _) = storage::power_on(sgh10::TABLE, &Loaded::Blank, 1);
-        Context::new(od, storage, 1, Bitrate::K500)
+        let mut c = Context::new(od, storage, 1, Bitrate::K500);
+        c.errors.announce_with(frame);
+        c.errors.set_gate(gate(nmt));
+        c
     }
 
-    /// The frames the producer sends for the announcements so far, in state `nmt`.
-    fn frames(emcy: &mut Emcy, ctx: &mut Context, nmt: NmtState) -> heapless::Vec<Frame, 16> {
-        emcy.flush(ctx, nmt);
+    /// The frames sent so far.
+    fn frames(ctx: &mut Context) -> heapless::Vec<Frame, 16> {
         let mut v = heapless::Vec::new();
         while let Some(o) = ctx.out.pop() {
             if let Output::Frame(f) = o {
@@ -185,18 +131,18 @@ mod tests {
 
     #[test]
     fn rising_and_falling_conditions() {
-        let (mut c, mut e) = (ctx(), Emcy::default());
+        let mut c = ctx(PRE);
         let now = Instant::ZERO;
         c.set_error(0xFF15, MANUFACTURER, true, now);
         c.set_error(0xFF15, MANUFACTURER, true, now);
-        assert_eq!(frames(&mut e, &mut c, PRE).as_slice(), &[Frame::std(0x81, &[0x15, 0xFF, 0x81, 0, 0, 0, 0, 0])]);
+        assert_eq!(frames(&mut c).as_slice(), &[Frame::std(0x81, &[0x15, 0xFF, 0x81, 0, 0, 0, 0, 0])]);
         c.set_error(0x8120, COMMUNICATION, true, now);
-        assert_eq!(frames(&mut e, &mut c, PRE).as_slice(), &[Frame::std(0x81, &[0x20, 0x81, 0x91, 0, 0, 0, 0, 0])]);
+        assert_eq!(frames(&mut c).as_slice(), &[Frame::std(0x81, &[0x20, 0x81, 0x91, 0, 0, 0, 0, 0])]);
         c.set_error(0xFF15, MANUFACTURER, false, now);
         c.set_error(0xFF15, MANUFACTURER, false, now);
-        assert_eq!(frames(&mut e, &mut c, PRE).as_slice(), &[Frame::std(0x81, &[0, 0, 0x11, 0, 0, 0, 0, 0])]);
+        assert_eq!(frames(&mut c).as_slice(), &[Frame::std(0x81, &[0, 0, 0x11, 0, 0, 0, 0, 0])]);
         set_error(&mut c, 0x8120, COMMUNICATION, false, now);
-        assert_eq!(frames(&mut e, &mut c, PRE).as_slice(), &[Frame::std(0x81, &[0, 0, 0, 0, 0, 0, 0, 0])]);
+        assert_eq!(frames(&mut c).as_slice(), &[Frame::std(0x81, &[0, 0, 0, 0, 0, 0, 0, 0])]);
         let od = &c.od;
         assert_eq!(od.value(0x1001, 0), Some(0));
         assert_eq!(
@@ -204,12 +150,12 @@ mod tests {
             (Some(2), Some(0x8120), Some(0xFF15))
         );
         c.set_error(0, MANUFACTURER, true, now);
-        assert!(frames(&mut e, &mut c, PRE).is_empty());
+        assert!(frames(&mut c).is_empty());
     }
 
     #[test]
     fn history_keeps_the_newest_eight() {
-        let mut c = ctx();
+        let mut c = ctx(PRE);
         for code in 1..=10u16 {
             c.set_error(0xFF00 + code, 0, true, Instant::ZERO);
         }
@@ -223,7 +169,7 @@ mod tests {
 
     #[test]
     fn history_clear_and_read_rules() {
-        let mut c = ctx();
+        let mut c = ctx(PRE);
         c.set_error(0xFF05, MANUFACTURER, true, Instant::ZERO);
         assert_eq!(errors::check_read(&c.od, 0x1003, 0), Ok(()));
         assert_eq!(errors::check_read(&c.od, 0x1003, 1), Ok(()));
@@ -252,7 +198,7 @@ mod tests {
         assert_eq!(check_cob_id(0x8000_0081, 0x7F), Err(Abort::INVALID_VALUE));
         assert_eq!(check_cob_id(0x8000_0081, 0x2000_0001), Ok(()));
         assert_eq!(check_cob_id(0x8000_0081, 0xA123_4567), Ok(()));
-        let c = ctx();
+        let c = ctx(PRE);
         let pos = c.od.pos(COB_ID_EMCY, 0).unwrap();
         assert_eq!(on_write_cob_id(&c.od, NmtState::Operational, pos, 0x8000_0081), Err(Abort::DEVICE_STATE));
         assert_eq!(on_write_cob_id(&c.od, PRE, pos, 0x8000_0081), Ok(()));
@@ -260,28 +206,29 @@ mod tests {
 
     #[test]
     fn no_emcy_in_stopped_or_with_invalid_cob_id() {
-        let (mut c, mut e) = (ctx(), Emcy::default());
+        let mut c = ctx(NmtState::Stopped);
         c.set_error(0xFF05, MANUFACTURER, true, Instant::ZERO);
-        assert!(frames(&mut e, &mut c, NmtState::Stopped).is_empty());
+        assert!(frames(&mut c).is_empty());
         assert_eq!(c.od.value(0x1001, 0), Some(0x81));
         assert_eq!(c.od.value(0x1003, 1), Some(0xFF05));
+        c.errors.set_gate(gate(PRE));
         c.od.set_value(0x1014, 0, 0x8000_0081);
         c.set_error(0xFF05, MANUFACTURER, false, Instant::ZERO);
-        assert!(frames(&mut e, &mut c, PRE).is_empty());
+        assert!(frames(&mut c).is_empty());
         assert_eq!(c.od.value(0x1001, 0), Some(0));
     }
 
     #[test]
     fn conditions_before_boot_up_follow_it_and_resets_announce_them_again() {
-        let (mut c, mut e) = (ctx(), Emcy::default());
+        let mut c = ctx(NmtState::Initialising);
         c.set_error(0xFF05, MANUFACTURER, true, Instant::ZERO);
-        assert!(frames(&mut e, &mut c, NmtState::Initialising).is_empty());
-        e.poll(&mut c, NmtState::Initialising, Instant::ZERO);
-        assert!(c.out.is_empty());
-        e.poll(&mut c, PRE, Instant::ZERO);
-        assert_eq!(frames(&mut e, &mut c, PRE).as_slice(), &[Frame::std(0x81, &[0x05, 0xFF, 0x81, 0, 0, 0, 0, 0])]);
-        e.reset(&c);
-        e.poll(&mut c, PRE, Instant::ZERO);
-        assert_eq!(frames(&mut e, &mut c, PRE).as_slice(), &[Frame::std(0x81, &[0x05, 0xFF, 0x81, 0, 0, 0, 0, 0])]);
+        c.release_deferred();
+        assert!(frames(&mut c).is_empty());
+        c.errors.set_gate(gate(PRE));
+        c.release_deferred();
+        assert_eq!(frames(&mut c).as_slice(), &[Frame::std(0x81, &[0x05, 0xFF, 0x81, 0, 0, 0, 0, 0])]);
+        c.errors.defer_active();
+        c.release_deferred();
+        assert_eq!(frames(&mut c).as_slice(), &[Frame::std(0x81, &[0x05, 0xFF, 0x81, 0, 0, 0, 0, 0])]);
     }
 }

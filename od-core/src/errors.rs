@@ -2,9 +2,10 @@
 //! active, the error register (1001h) they make, and the error history (1003h).
 //!
 //! A device raises and clears conditions with [`crate::context::Context::set_error`]; each
-//! change is recorded here and queued as an announcement (code, register) for the transport:
-//! the CANopen node's EMCY producer (`crate::emcy`) turns announcements into EMCY frames as its
-//! NMT state and 1014h allow; a J1939 node will turn the active conditions into DM1. The rules
+//! change is recorded here and announced at once as the transport has set it up ([`Gate`],
+//! [`Announce`]): the CANopen node sends an EMCY frame (`crate::emcy`), holds it until its
+//! boot-up message, or drops it, as its NMT state and 1014h allow; a J1939 node will report the
+//! active conditions in DM1. The rules
 //! (D-EMCY-n in `docs/decisions.md`):
 //! - a rising condition sets its bits in 1001h (bit 0 whenever any error is active), enters its
 //!   code at 1003h.01 (older entries moving one sub-index up) and announces `code`;
@@ -13,7 +14,9 @@
 //! - setting a condition to the state it has does nothing ("only once per error event").
 
 use crate::abort::Abort;
+use crate::frame::Frame;
 use crate::od::Od;
+use crate::output::Outbox;
 use crate::wire::emcy::NO_ERROR;
 
 /// Index of the error register.
@@ -26,10 +29,27 @@ pub const GENERIC: u8 = 0x01;
 /// Most error conditions active at once that are tracked. The manuals list at most seven
 /// codes per device.
 pub const MAX_ACTIVE: usize = 16;
-/// Most announcements waiting for the transport to take them. The transport takes them after
-/// every call into the node, and one call changes each condition at most once (a device
-/// reports at most [`MAX_ACTIVE`]).
-pub const MAX_ANNOUNCED: usize = MAX_ACTIVE;
+/// Most announcements held until the transport may send them (the CANopen boot-up message).
+pub const MAX_DEFERRED: usize = 8;
+
+/// What the transport does with an announcement now.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Gate {
+    /// Send it ([`Errors::announce_with`] builds the frame).
+    Send,
+    /// Hold it until [`crate::context::Context::release_deferred`] (CANopen INITIALISATION).
+    Defer,
+    /// Drop it (CANopen STOPPED); 1001h and 1003h still record the change.
+    Drop,
+}
+
+/// How a transport puts one announcement on the bus: the frame for (code, error register),
+/// given the dictionary and the node-ID, or `None` if it may not be sent (an invalid 1014h).
+pub type Announce = fn(od: &Od, node_id: u8, code: u16, register: u8) -> Option<Frame>;
+
+fn announce_nothing(_: &Od, _: u8, _: u16, _: u8) -> Option<Frame> {
+    None
+}
 
 /// One active error condition: its code and the 1001h bits it sets.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -38,13 +58,29 @@ struct Active {
     bits: u8,
 }
 
-/// The active error conditions and the announcements not yet taken by the transport.
-#[derive(Clone, Default)]
+/// The active error conditions, how the transport announces their changes, and the
+/// announcements it holds.
+#[derive(Clone)]
 pub struct Errors {
     active: heapless::Vec<Active, MAX_ACTIVE>,
-    announced: heapless::Deque<(u16, u8), MAX_ANNOUNCED>,
-    /// `announced` is not empty: one load for the check every node call makes.
+    /// (code, error register) of announcements held by [`Gate::Defer`].
+    deferred: heapless::Deque<(u16, u8), MAX_DEFERRED>,
+    /// `deferred` is not empty: one load for the idle tick.
     waiting: bool,
+    gate: Gate,
+    announce: Announce,
+}
+
+impl Default for Errors {
+    fn default() -> Errors {
+        Errors {
+            active: heapless::Vec::new(),
+            deferred: heapless::Deque::new(),
+            waiting: false,
+            gate: Gate::Defer,
+            announce: announce_nothing,
+        }
+    }
 }
 
 impl Errors {
@@ -62,29 +98,87 @@ impl Errors {
         reg
     }
 
-    /// The codes of the active conditions, oldest first (a J1939 DM1, a re-announcement after
-    /// a reset).
+    /// The codes of the active conditions (a J1939 DM1).
     pub fn active(&self) -> impl Iterator<Item = u16> + '_ {
         self.active.iter().map(|a| a.code)
     }
 
-    /// Takes the oldest announcement: (EMCY code, error register), code 0000h for "error
-    /// reset".
-    pub fn take(&mut self) -> Option<(u16, u8)> {
-        let next = self.announced.pop_front();
-        self.waiting = !self.announced.is_empty();
-        next
+    /// How the transport builds its announcement frames.
+    pub fn announce_with(&mut self, announce: Announce) {
+        self.announce = announce;
     }
 
-    /// Is any announcement waiting?
+    /// What happens to an announcement now (the transport sets it as its state changes).
+    pub fn set_gate(&mut self, gate: Gate) {
+        self.gate = gate;
+    }
+
+    /// The gate in force.
+    pub fn gate(&self) -> Gate {
+        self.gate
+    }
+
+    /// Are announcements held?
     #[inline]
-    pub fn has_announcements(&self) -> bool {
+    pub fn has_deferred(&self) -> bool {
         self.waiting
     }
 
-    /// Sets or clears condition `code` in `od`'s 1001h and 1003h and queues its announcement
+    /// Drops the announcements held and holds one for every condition still active (after a
+    /// CANopen reset: the new session learns of each).
+    pub fn defer_active(&mut self) {
+        self.deferred.clear();
+        let register = self.register();
+        for a in &self.active {
+            let _ = self.deferred.push_back((a.code, register));
+        }
+        self.waiting = !self.deferred.is_empty();
+    }
+
+    /// Takes the oldest held announcement.
+    fn take_deferred(&mut self) -> Option<(u16, u8)> {
+        let next = self.deferred.pop_front();
+        self.waiting = !self.deferred.is_empty();
+        next
+    }
+
+    /// Announces (code, register) through the gate.
+    fn announce(&mut self, od: &Od, node_id: u8, out: &mut Outbox, code: u16, register: u8) {
+        match self.gate {
+            Gate::Send => {
+                if let Some(frame) = (self.announce)(od, node_id, code, register) {
+                    out.send(frame);
+                }
+            }
+            Gate::Defer => {
+                let _ = self.deferred.push_back((code, register));
+                self.waiting = true;
+            }
+            Gate::Drop => {}
+        }
+    }
+
+    /// Sends the held announcements, if the gate now lets them through.
+    pub(crate) fn release(&mut self, od: &Od, node_id: u8, out: &mut Outbox) {
+        if !self.waiting || self.gate == Gate::Defer {
+            return;
+        }
+        while let Some((code, register)) = self.take_deferred() {
+            self.announce(od, node_id, out, code, register);
+        }
+    }
+
+    /// Sets or clears condition `code` in `od`'s 1001h and 1003h and announces the change
     /// (see the module rules). Code 0000h is not a condition and is ignored.
-    pub fn set(&mut self, od: &mut Od, code: u16, register_bits: u8, active: bool) {
+    pub(crate) fn set(
+        &mut self,
+        od: &mut Od,
+        node_id: u8,
+        out: &mut Outbox,
+        code: u16,
+        register_bits: u8,
+        active: bool,
+    ) {
         if code == NO_ERROR {
             return;
         }
@@ -108,8 +202,7 @@ impl Errors {
             register |= register_bits | GENERIC;
         }
         od.set_value(ERROR_REGISTER, 0, register as u32);
-        let _ = self.announced.push_back((sent, register));
-        self.waiting = true;
+        self.announce(od, node_id, out, sent, register);
     }
 }
 

@@ -23,6 +23,7 @@ pub mod lss;
 pub mod nmt;
 pub mod node;
 pub mod od;
+pub mod output;
 pub mod pdo;
 pub mod sdo;
 pub mod shell;

@@ -12,7 +12,7 @@ use crate::abort::Abort;
 use crate::access::{self, Access, Services};
 use crate::bitrate::Bitrate;
 use crate::context::Written;
-use crate::emcy::{self, Emcy};
+use crate::emcy;
 use crate::frame::{CanId, Frame, RxId};
 use crate::guarding::Guarding;
 use crate::heartbeat::Heartbeat;
@@ -38,7 +38,6 @@ pub struct Node<D: CanopenDevice> {
     device: D,
     nmt: NmtState,
     sdo: SdoServer,
-    emcy: Emcy,
     heartbeat: Heartbeat,
     guarding: Guarding,
     pdo: Pdos,
@@ -126,12 +125,14 @@ impl<D: CanopenDevice> Node<D> {
         let (od, storage, node_id) = storage::power_on(device.table(), loaded, fallback_node_id);
         let bitrate = pending_bitrate(&device, &od).unwrap_or(Bitrate::K500);
         let lss = Lss::new(&od, device.has_lss(), device.bitrate_codes());
+        let mut ctx = Context::new(od, storage, node_id, bitrate);
+        ctx.errors.announce_with(emcy::frame);
+        ctx.errors.set_gate(emcy::gate(NmtState::Initialising));
         let mut node = Node {
-            ctx: Context::new(od, storage, node_id, bitrate),
+            ctx,
             device,
             nmt: NmtState::Initialising,
             sdo: SdoServer::new(),
-            emcy: Emcy::default(),
             heartbeat: Heartbeat::default(),
             guarding: Guarding::default(),
             pdo: Pdos::default(),
@@ -202,24 +203,14 @@ impl<D: CanopenDevice> Node<D> {
         self.device.on_status(status);
     }
 
-    /// Turns the error conditions changed since the last call into EMCYs, in the NMT state
-    /// they changed in.
+    /// Enters NMT state `state`; error announcements follow it (EMCY rules).
     #[inline]
-    fn flush(&mut self) {
-        if self.ctx.errors.has_announcements() {
-            self.flush_announcements();
-        }
+    fn set_nmt(&mut self, state: NmtState) {
+        self.nmt = state;
+        self.ctx.errors.set_gate(emcy::gate(state));
     }
 
-    #[cold]
-    #[inline(never)]
-    fn flush_announcements(&mut self) {
-        self.emcy.flush(&mut self.ctx, self.nmt);
-    }
-
-    /// Takes the next thing the shell must do. Error conditions the shell's own calls into the
-    /// device raised ([`Node::split`]) are announced by the next call into the node, which
-    /// [`Node::next_deadline`] asks for at once.
+    /// Takes the next thing the shell must do.
     #[inline]
     pub fn next_output(&mut self) -> Option<Output> {
         self.ctx.out.pop()
@@ -227,7 +218,6 @@ impl<D: CanopenDevice> Node<D> {
 
     /// Handles one received frame.
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
-        self.flush();
         // LSS works in every NMT state and without a node-ID (CiA 305).
         if frame.id == CanId::Std(lss::RX_ID) && self.lss.enabled() {
             let event = self.lss.on_frame(&mut self.ctx, frame, now);
@@ -254,7 +244,6 @@ impl<D: CanopenDevice> Node<D> {
                     let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo };
                     let mut access = Access { ctx, device, services: &mut services };
                     let response = sdo.on_request(frame.payload(), now, &mut access);
-                    self.flush();
                     self.send_sdo(response);
                 }
             }
@@ -272,27 +261,24 @@ impl<D: CanopenDevice> Node<D> {
                     }
                 }
             }
-            _ => {
-                match self.pdo.on_frame(&mut self.ctx, self.nmt, frame, now) {
-                    PdoEvent::None | PdoEvent::Rtr(_) => return,
-                    PdoEvent::Sync { rpdos } => {
-                        if rpdos != 0 {
-                            for n in 0..pdo::MAX_RPDOS as u8 {
-                                if rpdos & (1 << n) != 0 {
-                                    self.device.on_rpdo(&mut self.ctx, n, now);
-                                }
+            _ => match self.pdo.on_frame(&mut self.ctx, self.nmt, frame, now) {
+                PdoEvent::None | PdoEvent::Rtr(_) => return,
+                PdoEvent::Sync { rpdos } => {
+                    if rpdos != 0 {
+                        for n in 0..pdo::MAX_RPDOS as u8 {
+                            if rpdos & (1 << n) != 0 {
+                                self.device.on_rpdo(&mut self.ctx, n, now);
                             }
                         }
-                        self.device.on_sync(&mut self.ctx, now);
                     }
-                    PdoEvent::Rpdo(n) => self.device.on_rpdo(&mut self.ctx, n, now),
-                    PdoEvent::RpdoRtr(n) => {
-                        let reply = RtrReply::new(&self.pdo, n);
-                        self.device.on_rpdo_rtr(&mut self.ctx, n, &reply, now);
-                    }
+                    self.device.on_sync(&mut self.ctx, now);
                 }
-                self.flush();
-            }
+                PdoEvent::Rpdo(n) => self.device.on_rpdo(&mut self.ctx, n, now),
+                PdoEvent::RpdoRtr(n) => {
+                    let reply = RtrReply::new(&self.pdo, n);
+                    self.device.on_rpdo_rtr(&mut self.ctx, n, &reply, now);
+                }
+            },
         }
     }
 
@@ -300,14 +286,11 @@ impl<D: CanopenDevice> Node<D> {
     /// raises or clears its EMCYs. EMCYs raised while the node cannot send (bus-off, STOPPED)
     /// follow the EMCY producer's rules.
     pub fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
-        self.flush();
         self.device.on_bus_event(&mut self.ctx, event, now);
-        self.flush();
     }
 
     /// Runs the timers due at `now`.
     pub fn poll(&mut self, now: Instant) {
-        self.flush();
         let event = self.lss.poll(&mut self.ctx, now);
         if event != LssEvent::None {
             self.on_lss(event, now);
@@ -325,18 +308,13 @@ impl<D: CanopenDevice> Node<D> {
         if self.guarding.poll(now) {
             self.notify();
         }
-        self.emcy.poll(&mut self.ctx, self.nmt, now);
+        self.ctx.release_deferred();
         self.pdo.poll(&mut self.ctx, now);
         self.device.poll(&mut self.ctx, now);
-        self.flush();
     }
 
     /// When [`Node::poll`] must next run; `None` when nothing is scheduled.
     pub fn next_deadline(&self) -> Option<Instant> {
-        // Error conditions changed outside a node call: the next poll announces them.
-        if self.ctx.errors.has_announcements() {
-            return Some(Instant::ZERO);
-        }
         let mut next = self.lss.next_deadline();
         if self.lss.switching() {
             return next;
@@ -383,9 +361,7 @@ impl<D: CanopenDevice> Node<D> {
     /// The shell has finished (or failed) the [`Output::Store`] it was given.
     /// The result goes to whoever asked: LSS store configuration, else the SDO server (1010h).
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
-        self.flush();
         self.ctx.store_done(result.is_ok(), now);
-        self.flush();
         if self.lss.store_done(&mut self.ctx, result.is_ok()) {
             return;
         }
@@ -405,13 +381,13 @@ impl<D: CanopenDevice> Node<D> {
         match event {
             LssEvent::None => {}
             LssEvent::Switching => {
-                self.nmt = NmtState::Initialising;
+                self.set_nmt(NmtState::Initialising);
                 self.notify();
             }
             LssEvent::ResetCommunication => self.reset(ResetKind::Communication, now),
             // Communication restarts on the new bit rate: `poll` sends the boot-up next.
             LssEvent::BootUp => {
-                self.nmt = NmtState::Initialising;
+                self.set_nmt(NmtState::Initialising);
                 self.sdo.reset();
                 self.notify();
             }
@@ -420,12 +396,12 @@ impl<D: CanopenDevice> Node<D> {
 
     fn on_nmt(&mut self, command: NmtCommand, now: Instant) {
         match command {
-            NmtCommand::Start => self.nmt = NmtState::Operational,
+            NmtCommand::Start => self.set_nmt(NmtState::Operational),
             NmtCommand::Stop => {
-                self.nmt = NmtState::Stopped;
+                self.set_nmt(NmtState::Stopped);
                 self.sdo.reset();
             }
-            NmtCommand::EnterPreOperational => self.nmt = NmtState::PreOperational,
+            NmtCommand::EnterPreOperational => self.set_nmt(NmtState::PreOperational),
             NmtCommand::ResetNode => self.reset(ResetKind::Node, now),
             NmtCommand::ResetCommunication => self.reset(ResetKind::Communication, now),
         }
@@ -436,7 +412,7 @@ impl<D: CanopenDevice> Node<D> {
     #[cold]
     #[inline(never)]
     fn reset(&mut self, kind: ResetKind, now: Instant) {
-        self.nmt = NmtState::Initialising;
+        self.set_nmt(NmtState::Initialising);
         self.sdo.reset();
         let device = &self.device;
         self.ctx.reload(kind, |e, groups| device.restores(e, groups));
@@ -444,9 +420,8 @@ impl<D: CanopenDevice> Node<D> {
         // The reloaded PDO configuration and node-ID count from now (filters, caches).
         self.pdo.reset(&self.ctx.od, now);
         self.lss.reset();
-        self.emcy.reset(&self.ctx);
+        self.ctx.errors.defer_active();
         self.device.on_reset(&mut self.ctx, kind, now);
-        self.flush();
         self.notify();
     }
 
@@ -471,12 +446,11 @@ impl<D: CanopenDevice> Node<D> {
     fn boot_up(&mut self, now: Instant) {
         let boot_up = ErrorControl { state: nmt_wire::BOOT_UP, toggle: false };
         self.ctx.out.send(Frame::std(0x700 + self.ctx.node_id as u16, &boot_up.emit()));
-        self.nmt = NmtState::PreOperational;
+        self.set_nmt(NmtState::PreOperational);
         self.heartbeat.reset(&self.ctx.od, now);
         self.guarding.reset(&self.ctx.od);
         self.pdo.reset(&self.ctx.od, now);
         self.ctx.boot_up(now);
-        self.flush();
         self.notify();
     }
 
@@ -485,11 +459,9 @@ impl<D: CanopenDevice> Node<D> {
     /// for a device's own user interface and for tests. Nothing changes on `Err`. A 1010h save
     /// answers `Written::Deferred` and completes at [`Node::store_done`].
     pub fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
-        self.flush();
         let Node { ctx, device, nmt, heartbeat, guarding, pdo, .. } = self;
         let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo };
         let result = access::write(ctx, device, &mut services, index, sub, data, now);
-        self.flush();
         result
     }
 
