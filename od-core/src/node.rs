@@ -249,26 +249,15 @@ impl<D: CanopenDevice> Node<D> {
             }
             CanId::Std(x) if x == 0x700 + id => {
                 if frame.rtr {
-                    let ended = self.guarding.on_rtr(
-                        &mut self.ctx.out,
-                        self.ctx.node_id,
-                        self.nmt,
-                        self.heartbeat.active(),
-                        now,
-                    );
-                    if ended {
-                        self.notify();
-                    }
+                    self.on_guarding_rtr(now);
                 }
             }
             _ => match self.pdo.on_frame(&mut self.ctx, self.nmt, frame, now) {
-                PdoEvent::None | PdoEvent::Rtr(_) => return,
+                PdoEvent::None | PdoEvent::Rtr(_) => {}
                 PdoEvent::Sync { rpdos } => {
-                    if rpdos != 0 {
-                        for n in 0..pdo::MAX_RPDOS as u8 {
-                            if rpdos & (1 << n) != 0 {
-                                self.device.on_rpdo(&mut self.ctx, n, now);
-                            }
+                    for n in 0..pdo::MAX_RPDOS as u8 {
+                        if rpdos & (1 << n) != 0 {
+                            self.device.on_rpdo(&mut self.ctx, n, now);
                         }
                     }
                     self.device.on_sync(&mut self.ctx, now);
@@ -375,6 +364,15 @@ impl<D: CanopenDevice> Node<D> {
         }
     }
 
+    /// A node-guarding RTR: guarding answers unless the heartbeat runs.
+    #[inline(never)]
+    fn on_guarding_rtr(&mut self, now: Instant) {
+        let heartbeat = self.heartbeat.active();
+        if self.guarding.on_rtr(&mut self.ctx.out, self.ctx.node_id, self.nmt, heartbeat, now) {
+            self.notify();
+        }
+    }
+
     #[cold]
     #[inline(never)]
     fn on_lss(&mut self, event: LssEvent, now: Instant) {
@@ -461,8 +459,7 @@ impl<D: CanopenDevice> Node<D> {
     pub fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
         let Node { ctx, device, nmt, heartbeat, guarding, pdo, .. } = self;
         let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo };
-        let result = access::write(ctx, device, &mut services, index, sub, data, now);
-        result
+        access::write(ctx, device, &mut services, index, sub, data, now)
     }
 
     /// Test access to the parts (a service's state beside the context).
