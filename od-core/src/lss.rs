@@ -398,3 +398,80 @@ fn part_value(od: &Od, part: Part) -> u32 {
 fn address(od: &Od) -> [u32; 4] {
     Part::ALL.map(|p| part_value(od, p))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bitrate::SIKO_CODES;
+    use crate::devices::sgh10;
+    use crate::storage::{self, Loaded};
+
+    /// The SGH10's dictionary in a context (node-ID 1, serial 1234) and its LSS slave: no
+    /// device, no node.
+    fn slave() -> (Context, Lss) {
+        let (od, storage, node_id) = storage::power_on(sgh10::TABLE, &Loaded::Blank, 1);
+        let mut ctx = Context::new(od, storage, node_id, Bitrate::K500);
+        ctx.od.set_value(0x1018, 4, 1234);
+        let lss = Lss::new(&ctx.od, true, SIKO_CODES);
+        (ctx, lss)
+    }
+
+    fn send(lss: &mut Lss, ctx: &mut Context, request: Request) -> Option<Response> {
+        let event = lss.on_frame(ctx, &Frame::std(RX_ID, &request.emit()), Instant::ZERO);
+        assert_eq!(event, LssEvent::None);
+        match ctx.out.pop() {
+            Some(Output::Frame(f)) => {
+                assert_eq!(f.id, crate::frame::CanId::Std(TX_ID));
+                Response::parse(f.payload())
+            }
+            _ => None,
+        }
+    }
+
+    #[test]
+    fn selective_switch_then_configure_and_inquire() {
+        let (mut c, mut lss) = slave();
+        let address = [Part::Vendor, Part::Product, Part::Revision, Part::Serial].map(|p| part_value(&c.od, p));
+        assert_eq!(address[3], 1234);
+        // Configuration services are ignored in LSS waiting.
+        assert_eq!(send(&mut lss, &mut c, Request::ConfigureNodeId(5)), None);
+        for (part, value) in Part::ALL.into_iter().zip(address) {
+            let answer = send(&mut lss, &mut c, Request::SwitchStateSelective { part, value });
+            assert_eq!(answer, (part == Part::Serial).then_some(Response::SwitchStateSelective));
+        }
+        assert_eq!(lss.state(), LssState::Configuration);
+        assert_eq!(
+            send(&mut lss, &mut c, Request::ConfigureNodeId(0)),
+            Some(Response::ConfigureNodeId { error: error::OUT_OF_RANGE, spec: 0 })
+        );
+        assert_eq!(
+            send(&mut lss, &mut c, Request::ConfigureNodeId(5)),
+            Some(Response::ConfigureNodeId { error: 0, spec: 0 })
+        );
+        assert_eq!(storage::pending(&c.od, CoreHook::PendingNodeId), Some(5));
+        assert_eq!(c.node_id, 1, "active only after a reset");
+        assert_eq!(send(&mut lss, &mut c, Request::InquireNodeId), Some(Response::InquireNodeId(1)));
+        assert_eq!(
+            send(&mut lss, &mut c, Request::InquireIdentity(Part::Serial)),
+            Some(Response::InquireIdentity { part: Part::Serial, value: 1234 })
+        );
+    }
+
+    #[test]
+    fn store_configuration_answers_when_the_shell_is_done() {
+        let (mut c, mut lss) = slave();
+        send(&mut lss, &mut c, Request::SwitchStateGlobal(LssState::Configuration));
+        assert_eq!(send(&mut lss, &mut c, Request::StoreConfiguration), None);
+        assert!(c.storage.saving());
+        // The Output::Store was queued before any answer.
+        assert!(lss.store_done(&mut c, false));
+        assert_eq!(
+            c.out.pop().and_then(|o| match o {
+                Output::Frame(f) => Response::parse(f.payload()),
+                _ => None,
+            }),
+            Some(Response::StoreConfiguration { error: error::STORE_FAILED, spec: 0 })
+        );
+        assert!(!lss.store_done(&mut c, true), "nothing asked: the SDO server's store");
+    }
+}
