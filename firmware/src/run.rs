@@ -63,7 +63,12 @@ pub async fn run<D: CanopenDevice, I: Io<D>>(device: D, mcu: Mcu, io: I) -> ! {
 /// ([`od_core::Station`], [`DeviceStation`]): `make` powers the node on from the parameter
 /// pages of the device whose dictionary is `table` (inside this future, so that the node is
 /// stored once).
-pub async fn drive<N, I>(mcu: Mcu, table: &'static [Entry], make: impl FnOnce(&mut Params, &[u8; 12]) -> N, mut io: I) -> !
+pub async fn drive<N, I>(
+    mcu: Mcu,
+    table: &'static [Entry],
+    make: impl FnOnce(&mut Params, &[u8; 12]) -> N,
+    mut io: I,
+) -> !
 where
     N: DeviceStation,
     N::Device: Device,
