@@ -9,7 +9,9 @@ use board_plan::straps::serial_from_uid;
 use od_core::devices::{sgh10, sgh50, wv5800m};
 use od_core::encoder::rotary;
 use od_core::encoder::{program_serial, Encoder};
-use od_core::node::{Core, Node, Output};
+use od_core::lss::Lss;
+use od_core::nmt::NmtState;
+use od_core::node::{BusEvent, CanopenDevice, Context, Core, Node, Output, RxIds};
 use od_core::od::{CoreHook, Entry, Hook};
 use od_core::storage::{identity, Image, Loaded, ParamFlash, Record, Region};
 use od_core::{Frame, Instant};
@@ -22,7 +24,7 @@ use crate::segment::{Boot, NodeFlash, Station};
 pub const REGION: Region = Region { offset: 0, pages: 4 };
 
 /// An encoder node with its simulated sensor: the sensor is sampled at the device's period.
-pub struct Sensed<E: Encoder> {
+pub struct Sensed<E: Encoder + CanopenDevice> {
     node: Node<E>,
     /// What the device shows (LEDs, screen), for the live view.
     panel: Option<Panel<E>>,
@@ -32,7 +34,7 @@ pub struct Sensed<E: Encoder> {
     next_sample: Instant,
 }
 
-impl<E: Encoder> Sensed<E> {
+impl<E: Encoder + CanopenDevice> Sensed<E> {
     /// `node` whose sensor moves as `motion` within 0..=`max`.
     pub fn new(node: Node<E>, motion: Motion, max: u32) -> Sensed<E> {
         Sensed { node, panel: None, motion, max, next_sample: Instant::ZERO }
@@ -49,8 +51,8 @@ impl<E: Encoder> Sensed<E> {
 pub type Panel<E> = fn(&E, &Core) -> String;
 
 /// The WV5800M's three LEDs (CiA 303-3 green and red, yellow over-speed).
-fn wv5800m_leds(d: &wv5800m::Wv5800m, core: &Core) -> String {
-    let l = d.leds(core);
+fn wv5800m_leds(d: &wv5800m::Wv5800m, _: &Core) -> String {
+    let l = d.leds();
     format!("LEDs green={:?} red={:?} yellow={:?}", l.green, l.red, l.yellow)
 }
 
@@ -64,7 +66,7 @@ pub fn raw_at(motion: Motion, max: u32, t: f64) -> u32 {
     v.clamp(0.0, max as f64) as u32
 }
 
-impl<E: Encoder> Station for Sensed<E> {
+impl<E: Encoder + CanopenDevice> od_core::Station for Sensed<E> {
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
         self.node.on_frame(frame, now)
     }
@@ -87,11 +89,29 @@ impl<E: Encoder> Station for Sensed<E> {
     fn next_output(&mut self) -> Option<Output> {
         self.node.next_output()
     }
-    fn store_done(&mut self, ok: bool, now: Instant) {
-        self.node.store_done(if ok { Ok(()) } else { Err(()) }, now)
+    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.node.store_done(result, now)
     }
-    fn core(&self) -> &Core {
-        self.node.core()
+    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.node.on_bus_event(event, now)
+    }
+    fn rx_ids(&self) -> RxIds {
+        self.node.rx_ids()
+    }
+    fn rx_ids_generation(&self) -> u32 {
+        self.node.rx_ids_generation()
+    }
+    fn context(&self) -> &Context {
+        self.node.context()
+    }
+}
+
+impl<E: Encoder + CanopenDevice> Station for Sensed<E> {
+    fn nmt(&self) -> Option<NmtState> {
+        Some(self.node.nmt_state())
+    }
+    fn lss(&self) -> Option<&Lss> {
+        Some(self.node.lss())
     }
     fn panel(&self) -> Option<String> {
         self.panel.map(|p| p(self.node.device(), self.node.core()))
@@ -243,7 +263,7 @@ pub fn board_uid(bus: &str, kind: Kind, position: usize, channel: usize) -> [u8;
     uid
 }
 
-fn encoder_boot<E: Encoder + Clone + 'static>(
+fn encoder_boot<E: Encoder + CanopenDevice + Clone + 'static>(
     device: E,
     motion: Motion,
     max: u32,
