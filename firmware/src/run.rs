@@ -1,8 +1,9 @@
 //! Boot and the main loop.
 //!
 //! One loop does everything, in this order each turn: feed the watchdog, hand the node the
-//! received frames and the controller's events, run its timers when due, carry out its outputs
-//! (frames into the transmit queue, parameter saves, bit-rate switches), re-program the filters
+//! received frames and the controller's events, run its timers when due, carrying out its
+//! outputs after each of these calls (frames into the transmit queue, parameter saves, bit-rate
+//! switches; D-ARCH-3), re-program the filters
 //! when the node's identifiers changed, fill the mailboxes, show the device's state; then wait
 //! for whichever comes first: a frame, a free mailbox, the node's next deadline, the next change
 //! of the LEDs, or the next sample. The sample period (1 ms) makes the loop turn at least that
@@ -12,6 +13,8 @@ use board_plan::straps::serial_from_uid;
 use boards::mcu::Mcu;
 use boards::Io;
 use embassy_futures::select::{select3, Either3};
+use embassy_stm32::peripherals::IWDG;
+use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_time::{Duration, Timer};
 use od_core::encoder::program_serial;
 use od_core::node::{CanopenDevice, Device, Node, Output};
@@ -42,6 +45,33 @@ pub fn boot<D: CanopenDevice>(device: D, params: &mut Params, uid: &[u8; 12]) ->
         if loaded.image().is_some() { "stored" } else { "defaults" }
     );
     node
+}
+
+/// Carries out what the node asks for: frames into the transmit queue, parameter saves (answered
+/// when the flash is written), bit-rate switches.
+async fn serve<N: DeviceStation>(
+    node: &mut N,
+    bus: &mut Bus,
+    params: &mut Params,
+    watchdog: &mut IndependentWatchdog<'static, IWDG>,
+) {
+    while let Some(output) = node.next_output() {
+        match output {
+            Output::Frame(frame) => bus.send(frame),
+            Output::Store(groups) => {
+                watchdog.pet();
+                let result = params.save(node.context(), groups);
+                if result.is_err() {
+                    defmt::error!("parameter save failed");
+                }
+                node.store_done(result.map_err(|_| ()), now());
+            }
+            Output::SetBitrate(rate) => {
+                defmt::info!("bit rate {=u32} kbit/s", rate.kbit());
+                bus.set_bitrate(rate).await;
+            }
+        }
+    }
 }
 
 /// Waits for `deadline` (forever if there is none).
@@ -91,34 +121,27 @@ where
     let mut next_sample = embassy_time::Instant::now() + period;
     let mut filters = None;
     let mut dropped = 0;
+    let mut lost_outputs = 0;
     loop {
         watchdog.pet();
         let t = now();
+        // The node's outputs are carried out after every call, so its outbox never holds more
+        // than one call's worth (`od_core::output::WORST_CALL_FRAMES`) and drops nothing.
         while let Some(frame) = bus.receive() {
             node.on_frame(&frame, t);
+            serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
         }
         for event in bus.events() {
             node.on_bus_event(event, t);
         }
+        serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
         if node.next_deadline().is_some_and(|d| d <= t) {
             node.poll(t);
+            serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
         }
-        while let Some(output) = node.next_output() {
-            match output {
-                Output::Frame(frame) => bus.send(frame),
-                Output::Store(groups) => {
-                    watchdog.pet();
-                    let result = params.save(node.context(), groups);
-                    if result.is_err() {
-                        defmt::error!("parameter save failed");
-                    }
-                    node.store_done(result.map_err(|_| ()), now());
-                }
-                Output::SetBitrate(rate) => {
-                    defmt::info!("bit rate {=u32} kbit/s", rate.kbit());
-                    bus.set_bitrate(rate).await;
-                }
-            }
+        if node.context().out.dropped() != lost_outputs {
+            lost_outputs = node.context().out.dropped();
+            defmt::error!("node outbox full: {=u32} outputs lost", lost_outputs);
         }
         let generation = node.rx_ids_generation();
         if filters != Some(generation) {

@@ -64,6 +64,8 @@ struct SimBus {
     labels: Vec<String>,
     /// What each node showed last (LEDs, screen).
     panels: Vec<Option<String>>,
+    /// Each node's count of outputs its outbox dropped, as the view showed it last (D-ARCH-3).
+    lost: Vec<u32>,
     /// Until when (µs since start) the bus carries the frames it was given.
     busy_until: u64,
     /// The client served last, for the round robin.
@@ -102,6 +104,7 @@ pub fn run(opts: &Options) -> Result<(), String> {
                         segment: Segment::new(),
                         labels: Vec::new(),
                         panels: Vec::new(),
+                        lost: Vec::new(),
                         busy_until: 0,
                         turn: 0,
                     });
@@ -111,6 +114,7 @@ pub fn run(opts: &Options) -> Result<(), String> {
             buses[b].segment.add_with_flash(plan.params, plan.boot);
             buses[b].labels.push(plan.label);
             buses[b].panels.push(None);
+            buses[b].lost.push(0);
         }
     }
     check_buses(opts, &buses)?;
@@ -526,6 +530,19 @@ impl Sim {
                     println!("{}", fit(&line, width));
                 }
                 bus.panels[i] = panel;
+            }
+            let lost = bus.segment.core(i).out.dropped();
+            if lost != bus.lost[i] {
+                if !self.quiet {
+                    let line = format!(
+                        "-- {}#{} on {}: {lost} outputs lost (outbox full)",
+                        bus.labels[i],
+                        bus.segment.core(i).node_id,
+                        bus.name
+                    );
+                    println!("{}", fit(&line, width));
+                }
+                bus.lost[i] = lost;
             }
         }
     }
