@@ -28,5 +28,5 @@ pub use abort::Abort;
 pub use bitrate::Bitrate;
 pub use frame::{CanId, Frame, RxId};
 pub use nmt::NmtState;
-pub use node::{BusEvent, Core, Device, Node, Output};
+pub use node::{BusEvent, Core, Device, DeviceRequests, Node, Output};
 pub use time::Instant;

@@ -153,6 +153,17 @@ impl Core {
     }
 }
 
+/// What a device asks of its node beyond frames and stores, taken by the node after the
+/// device ran ([`Device::take_requests`]): the AP10T's Auto-ID answers its deferred SDO write
+/// after a key press and then runs the initialisation again with the new node-ID.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct DeviceRequests {
+    /// Answer the SDO request the device deferred ([`Device::on_write_deferred`]).
+    pub sdo: Option<Result<(), Abort>>,
+    /// Reset this way (after the SDO answer).
+    pub reset: Option<ResetKind>,
+}
+
 /// What a device (a CiA 406 encoder, the AP10T display ...) adds to the core.
 pub trait Device {
     /// The device's dictionary, sorted by (index, sub).
@@ -176,6 +187,28 @@ pub trait Device {
     fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
         let _ = (core, pos, value, now);
         Ok(())
+    }
+
+    /// [`Device::on_write`] for a write whose SDO answer may wait: `Written::Deferred` holds
+    /// the answer until the device asks for it ([`DeviceRequests::sdo`]). By default the write
+    /// is answered at once.
+    fn on_write_deferred(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<Written, Abort> {
+        self.on_write(core, pos, value, now).map(|()| Written::Done)
+    }
+
+    /// What the device asks of the node now (taken: a second call returns none).
+    fn take_requests(&mut self) -> DeviceRequests {
+        DeviceRequests::default()
+    }
+
+    /// Whether the device has requests waiting (the node polls at once then).
+    fn has_requests(&self) -> bool {
+        false
+    }
+
+    /// The NMT state changed by an NMT command (`core.nmt` is the new state).
+    fn on_nmt(&mut self, core: &mut Core, now: Instant) {
+        let _ = (core, now);
     }
 
     /// A receive PDO (0-based number `n`) has written its mapped entries.
@@ -381,6 +414,20 @@ impl<D: Device> Node<D> {
         emcy::poll(&mut self.core, now);
         pdo::poll(&mut self.core, now);
         self.device.poll(&mut self.core, now);
+        self.device_requests(now);
+    }
+
+    /// Carries out what the device asked for: the deferred SDO answer first (on the identifier
+    /// in use when it was asked), then the reset.
+    fn device_requests(&mut self, now: Instant) {
+        let req = self.device.take_requests();
+        if let Some(result) = req.sdo {
+            let response = self.sdo.complete_deferred(result);
+            self.send_sdo(response);
+        }
+        if let Some(kind) = req.reset {
+            self.reset(kind, now);
+        }
     }
 
     /// When [`Node::poll`] must next run; `None` when nothing is scheduled.
@@ -389,6 +436,9 @@ impl<D: Device> Node<D> {
         let mut next = lss::next_deadline(core);
         if core.lss.switching() {
             return next;
+        }
+        if self.device.has_requests() {
+            return Some(Instant::ZERO);
         }
         if core.configured() {
             if core.nmt == NmtState::Initialising {
@@ -472,6 +522,7 @@ impl<D: Device> Node<D> {
             NmtCommand::ResetCommunication => self.reset(ResetKind::Communication, now),
         }
         pdo::on_state(&mut self.core, now);
+        self.device.on_nmt(&mut self.core, now);
     }
 
     fn reset(&mut self, kind: ResetKind, now: Instant) {
@@ -571,10 +622,7 @@ impl<D: Device> ObjectAccess for Dict<'_, D> {
         let written = match hook {
             Hook::None => Written::Done,
             Hook::Core(hook) => core_write(self.core, hook, pos, value, now)?,
-            Hook::Device(_) => {
-                self.device.on_write(self.core, pos, value, now)?;
-                Written::Done
-            }
+            Hook::Device(_) => self.device.on_write_deferred(self.core, pos, value, now)?,
         };
         // 1010h/1011h signatures are commands: the entries keep reading their capabilities.
         if !matches!(hook, Hook::Core(CoreHook::Store | CoreHook::Restore)) {

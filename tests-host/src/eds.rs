@@ -60,6 +60,8 @@ pub fn devices() -> Vec<(EdsInfo, &'static [Entry])> {
         model: od_core::devices::wv5800m::Model::Wv,
         turns: od_core::devices::wv5800m::Turns::Multi12,
     }));
+    // The AP10T: its own bit-rate coding (5F0Ah.03) and no LSS.
+    let ap10t = od_core::devices::ap10t::Ap10t::new();
     vec![
         (
         EdsInfo {
@@ -108,6 +110,22 @@ pub fn devices() -> Vec<(EdsInfo, &'static [Entry])> {
             lss: wv5800m.has_lss(),
         },
         wv5800m.table(),
+    ),
+    (
+        EdsInfo {
+            file_name: "AP10T.eds",
+            description: "SIKO AP10T set point display, CANopen (CiA 301; CiA 406 objects, no LSS)",
+            file_version: 1,
+            file_revision: 0,
+            creation_date: "11-25-2026",
+            creation_time: "12:00PM",
+            created_by: "SIKO GmbH",
+            vendor_name: "SIKO GmbH",
+            order_code: "AP10T",
+            bitrates: rates(&ap10t),
+            lss: ap10t.has_lss(),
+        },
+        ap10t.table(),
     )]
 }
 
@@ -123,6 +141,9 @@ fn access(a: Access) -> &'static str {
         Access::Wo => "wo",
         Access::Rw => "rw",
         Access::Const => "const",
+        // CiA 306 has no "no access": a PDO-only object is read by its TPDO, so "ro" (a
+        // configurator maps it; an SDO read answers 06010000h).
+        Access::PdoOnly => "ro",
     }
 }
 

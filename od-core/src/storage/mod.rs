@@ -113,6 +113,12 @@ impl Storage {
         self.restore
     }
 
+    /// Marks `mask` for restoration, as a 1011h "load" does: the next reset loads the factory
+    /// defaults of the entries the device's `restores` picks (the AP10T's menu CODEs).
+    pub fn mark_restore(&mut self, mask: GroupMask) {
+        self.restore.0 |= mask.0;
+    }
+
     /// Did the power-on find the parameter flash unusable (and no save has fixed it yet)?
     pub fn fault(&self) -> bool {
         self.fault
