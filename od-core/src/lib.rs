@@ -7,6 +7,7 @@
 #![deny(missing_docs)]
 
 pub mod abort;
+pub mod autobaud;
 pub mod bitrate;
 pub mod devices;
 pub mod emcy;

@@ -6,6 +6,7 @@
 //! global state.
 
 use crate::abort::Abort;
+use crate::autobaud::Scan;
 use crate::bitrate::Bitrate;
 use crate::emcy::{self, Emcy};
 use crate::frame::{CanId, Frame, RxId};
@@ -249,6 +250,19 @@ pub trait Device {
         let _ = (core, event, now);
     }
 
+    /// The rates an automatic bit-rate detection tries, in order, when the pending bit-rate
+    /// code names no rate at power-on (the AP10T's 5F0Ah.03 = 0, "Auto baud"); empty (the
+    /// default): no detection, the node then runs at 500 kbit/s.
+    fn auto_bitrates(&self) -> &'static [Bitrate] {
+        &[]
+    }
+
+    /// Does the SDO server serve expedited transfers only (the AP10T: "exclusively via
+    /// expedited Request/Response")? False by default: segmented too.
+    fn sdo_expedited_only(&self) -> bool {
+        false
+    }
+
     /// Does the device have an LSS slave (CiA 305)? The SGH10, SGH50 and WV5800M do; the
     /// AP10T and the WV58MR have none and return false: their node then ignores 7E5h.
     fn has_lss(&self) -> bool {
@@ -261,6 +275,8 @@ pub struct Node<D: Device> {
     core: Core,
     device: D,
     sdo: SdoServer,
+    /// The automatic bit-rate detection under way (before the boot-up).
+    scan: Option<Scan>,
 }
 
 impl<D: Device> Node<D> {
@@ -283,6 +299,9 @@ impl<D: Device> Node<D> {
         let mut node = Node::power_on(device, &Loaded::Image(image), node_id);
         node.core.node_id = node_id;
         node.core.bitrate = bitrate;
+        if code.is_some() {
+            node.scan = None;
+        }
         node
     }
 
@@ -298,7 +317,12 @@ impl<D: Device> Node<D> {
 
     fn power_on(device: D, loaded: &Loaded, fallback_node_id: u8) -> Node<D> {
         let (od, storage, node_id) = storage::power_on(device.table(), loaded, fallback_node_id);
-        let bitrate = pending_bitrate(&device, &od).unwrap_or(Bitrate::K500);
+        let pending = pending_bitrate(&device, &od);
+        let scan = match pending {
+            None if storage::pending(&od, CoreHook::PendingBitrate).is_some() => Scan::new(device.auto_bitrates()),
+            _ => None,
+        };
+        let bitrate = pending.or(scan.map(|s| s.rate())).unwrap_or(Bitrate::K500);
         let lss = Lss::new(&od, device.has_lss(), device.bitrate_codes());
         let core = Core {
             od,
@@ -313,7 +337,9 @@ impl<D: Device> Node<D> {
             lss,
             storage,
         };
-        Node { core, device, sdo: SdoServer::new() }
+        let mut sdo = SdoServer::new();
+        sdo.set_expedited_only(device.sdo_expedited_only());
+        Node { core, device, sdo, scan }
     }
 
     /// The shared state.
@@ -341,8 +367,27 @@ impl<D: Device> Node<D> {
         self.core.out.pop()
     }
 
+    /// Is the node detecting its bit rate (before its boot-up)? The shell then runs its CAN
+    /// controller silent (it sends nothing, not even an ACK or an error frame), at the rate
+    /// the last `Output::SetBitrate` named, with its acceptance filters open, and passes every
+    /// frame received without error: the first one ends the detection (D-AP-20).
+    pub fn listen_only(&self) -> bool {
+        self.scan.is_some()
+    }
+
     /// Handles one received frame.
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        // A frame received without error during the bit-rate detection proves the rate: the
+        // node takes it (as its pending code, which a 1010h save keeps) and boots up.
+        if let Some(scan) = self.scan.take() {
+            let rate = scan.rate();
+            self.core.bitrate = rate;
+            let code = self.device.bitrate_codes().iter().find(|(_, b)| *b == rate).map(|(c, _)| *c);
+            if let (Some(pos), Some(code)) = (self.core.od.find_hook(CoreHook::PendingBitrate), code) {
+                self.core.od.set(pos, code);
+            }
+            return;
+        }
         // LSS works in every NMT state and without a node-ID (CiA 305).
         if frame.id == CanId::Std(lss::RX_ID) && self.core.lss.enabled() {
             let event = lss::on_frame(&mut self.core, frame, now);
@@ -364,7 +409,7 @@ impl<D: Device> Node<D> {
             }
             CanId::Std(x) if x == 0x600 + id => {
                 if !frame.rtr && self.core.nmt.sdo_allowed() {
-                    let Node { core, device, sdo } = self;
+                    let Node { core, device, sdo, .. } = self;
                     let response = sdo.on_request(frame.payload(), now, &mut Dict { core, device });
                     self.send_sdo(response);
                 }
@@ -399,6 +444,14 @@ impl<D: Device> Node<D> {
 
     /// Runs the timers due at `now`.
     pub fn poll(&mut self, now: Instant) {
+        if let Some(scan) = &mut self.scan {
+            let first = scan.next_deadline() == Instant::ZERO;
+            if let Some(rate) = scan.poll(now).or(first.then(|| scan.rate())) {
+                self.core.bitrate = rate;
+                self.core.out.push(Output::SetBitrate(rate));
+            }
+            return;
+        }
         let event = lss::poll(&mut self.core, now);
         self.on_lss(event, now);
         if !self.core.configured() || self.core.lss.switching() {
@@ -432,6 +485,9 @@ impl<D: Device> Node<D> {
 
     /// When [`Node::poll`] must next run; `None` when nothing is scheduled.
     pub fn next_deadline(&self) -> Option<Instant> {
+        if let Some(scan) = &self.scan {
+            return Some(scan.next_deadline());
+        }
         let core = &self.core;
         let mut next = lss::next_deadline(core);
         if core.lss.switching() {

@@ -60,6 +60,8 @@ pub struct SdoServer {
     pos: usize,
     deadline: Instant,
     deferred: Option<(u16, u8, [u8; 8])>,
+    /// Expedited transfers only (the AP10T, D-AP-21).
+    expedited_only: bool,
 }
 
 impl Default for SdoServer {
@@ -93,7 +95,15 @@ impl SdoServer {
             pos: 0,
             deadline: Instant::ZERO,
             deferred: None,
+            expedited_only: false,
         }
+    }
+
+    /// Serves expedited transfers only, as the AP10T's manual does ("exclusively via expedited
+    /// Request/Response", D-AP-21): a segmented or unsized download request aborts with
+    /// 05040001h, and a value longer than four bytes is uploaded expedited with its first four.
+    pub fn set_expedited_only(&mut self, on: bool) {
+        self.expedited_only = on;
     }
 
     /// Drops any transfer in progress (NMT reset, STOPPED).
@@ -121,6 +131,7 @@ impl SdoServer {
                 self.upload(index, sub, now, dict)
             }
             // Initiate download.
+            1 if self.expedited_only && cmd & 0x03 != 0x03 => self.fail(index, sub, Abort::INVALID_COMMAND),
             1 => {
                 self.state = State::Idle;
                 self.initiate_download(cmd, index, sub, req, now, dict)
@@ -149,6 +160,7 @@ impl SdoServer {
         // One lookup: the value is read whole, then sent expedited or segmented by its size.
         let mut value = [0u8; MAX_VALUE];
         let n = match dict.read(index, sub, &mut value) {
+            Ok(n) if self.expedited_only => n.min(4),
             Ok(n) => n,
             Err(abort) => return self.fail(index, sub, abort),
         };
@@ -347,6 +359,35 @@ mod tests {
 
     fn at(ms: u64) -> Instant {
         Instant::from_millis(ms)
+    }
+
+    #[test]
+    fn expedited_only_aborts_segmented_and_unsized_requests_and_cuts_long_values() {
+        let mut d = Fake { value: 7 };
+        let mut s = SdoServer::new();
+        s.set_expedited_only(true);
+        let t = Instant::ZERO;
+        // Initiate segmented download (21h, 20h) and unsized expedited (22h): 05040001h.
+        for cmd in [0x21, 0x20, 0x22] {
+            assert_eq!(
+                s.on_request(&[cmd, 0x00, 0x20, 0x00, 4, 0, 0, 0], t, &mut d),
+                Some([0x80, 0x00, 0x20, 0x00, 0x01, 0x00, 0x04, 0x05])
+            );
+        }
+        assert_eq!(d.value, 7);
+        // Sized expedited still writes.
+        assert_eq!(
+            s.on_request(&[0x23, 0x00, 0x20, 0x00, 9, 0, 0, 0], t, &mut d),
+            Some([0x60, 0x00, 0x20, 0, 0, 0, 0, 0])
+        );
+        assert_eq!(d.value, 9);
+        // The 10-byte string: its first four bytes, expedited.
+        assert_eq!(
+            s.on_request(&[0x40, 0x01, 0x20, 0x00, 0, 0, 0, 0], t, &mut d),
+            Some([0x43, 0x01, 0x20, 0x00, b'0', b'1', b'2', b'3'])
+        );
+        // No segment follows.
+        assert_eq!(s.on_request(&[0x60, 0, 0, 0, 0, 0, 0, 0], t, &mut d).map(|r| r[0]), Some(0x80));
     }
 
     #[test]

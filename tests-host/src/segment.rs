@@ -31,6 +31,11 @@ pub trait Station {
     fn panel(&self) -> Option<String> {
         None
     }
+    /// The station as `Any`, for a test or the simulator to reach a concrete station (an
+    /// AP10T's keys); `None` where the station does not offer it.
+    fn as_any_mut(&mut self) -> Option<&mut dyn Any> {
+        None
+    }
 }
 
 impl<D: Device> Station for Node<D> {

@@ -63,6 +63,9 @@ pub fn is_bus_parameter(e: &Entry) -> bool {
     BUS_PARAMETERS.contains(&(e.index, e.sub)) || (e.index, e.sub) == (0x6200, 0)
 }
 
+/// The rates the automatic detection tries, in this order (5F0Ah.03 codes 1..5).
+pub static AUTO_BITRATES: [Bitrate; 5] = [Bitrate::K125, Bitrate::K250, Bitrate::K500, Bitrate::K800, Bitrate::K1000];
+
 // Condition numbers in `EmcyConditions`.
 const C_PASSIVE: usize = 0;
 const C_BUS_OFF: usize = 1;
@@ -265,6 +268,15 @@ impl Device for Ap10t {
 
     fn has_lss(&self) -> bool {
         false
+    }
+
+    fn sdo_expedited_only(&self) -> bool {
+        true
+    }
+
+    /// The rates of 5F0Ah.03, slowest first (AP10T A31, D-AP-20).
+    fn auto_bitrates(&self) -> &'static [Bitrate] {
+        &AUTO_BITRATES
     }
 
     /// 1011h sub 2 restores the bus parameters of Table 4 (5F0Ah.01/.03, 5F09h among them) and
