@@ -9,7 +9,7 @@ use std::any::Any;
 use std::cell::Cell;
 
 use od_core::devices::ap10t::{Ap10t, Key, View};
-use od_core::node::{Core, Node, Output};
+use od_core::node::{BusEvent, Core, Node, Output};
 use od_core::storage::Loaded;
 use od_core::{Bitrate, Frame, Instant};
 
@@ -54,6 +54,12 @@ impl Display {
     pub fn release(&mut self, key: Key, now: Instant) {
         let (device, core) = self.node.split();
         device.release(core, key, now);
+        self.now.set(now);
+    }
+
+    /// The CAN controller reported `event` at `now`.
+    pub fn bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.node.on_bus_event(event, now);
         self.now.set(now);
     }
 
