@@ -132,6 +132,11 @@ impl GroupMask {
     /// Only the pending node-ID and bit rate (the entries hooked `PendingNodeId` and
     /// `PendingBitrate`): what LSS "store configuration" persists.
     pub const LSS: GroupMask = GroupMask(16);
+    /// Only the pending node-ID (the entry hooked `PendingNodeId`): what the AP10T's Auto-ID
+    /// and its key menu's `ID` keep.
+    pub const NODE_ID: GroupMask = GroupMask(32);
+    /// Only the pending bit-rate code (hooked `PendingBitrate`): what the AP10T's `KBAUD` keeps.
+    pub const BITRATE: GroupMask = GroupMask(64);
     /// The groups a 1010h/1011h subindex selects (1 all, 2 comm, 3 app, 4 manufacturer).
     pub const fn from_subindex(sub: u8) -> Option<GroupMask> {
         match sub {

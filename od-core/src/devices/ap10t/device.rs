@@ -198,8 +198,8 @@ impl Ap10t {
         self.refresh(core);
         match effect {
             None | Some(Effect::Acknowledged) => {}
-            Some(Effect::SetNodeId(id)) => self.keep(core, 0x5F0A, 1, id),
-            Some(Effect::SetBaud(code)) => self.keep(core, 0x5F0A, 3, code),
+            Some(Effect::SetNodeId(id)) => self.keep(core, 1, id, GroupMask::NODE_ID),
+            Some(Effect::SetBaud(code)) => self.keep(core, 3, code, GroupMask::BITRATE),
             Some(Effect::FactoryReset(scope)) => {
                 self.menu_reset = Some(scope);
                 core.storage.mark_restore(GroupMask::ALL);
@@ -210,11 +210,13 @@ impl Ap10t {
                 // Manual 4.6.2: the SDO reply (on the old identifier), the node-ID stored,
                 // the initialisation again, the boot-up with the new node-ID.
                 core.od.set_value(0x5F0A, 1, id as u32);
-                let _ = crate::storage::request(core, GroupMask::LSS);
+                let _ = crate::storage::request(core, GroupMask::NODE_ID);
                 self.requests.sdo = Some(Ok(()));
                 self.requests.reset = Some(ResetKind::Communication);
             }
         }
+        // The menu shows what the dictionary now holds.
+        self.panel.params = Ap10t::params(core);
     }
 
     /// A key was released.
@@ -224,11 +226,11 @@ impl Ap10t {
         self.refresh(core);
     }
 
-    /// A menu change of 5F0Ah: into the dictionary and kept at once (GroupMask::LSS: the
-    /// node-ID and the bit rate only); adopted at the next initialisation (D-AP-16).
-    fn keep(&mut self, core: &mut Core, index: u16, sub: u8, value: u8) {
-        core.od.set_value(index, sub, value as u32);
-        let _ = crate::storage::request(core, GroupMask::LSS);
+    /// A menu change of 5F0Ah sub `sub`: into the dictionary and kept at once (that entry
+    /// alone, `mask`); adopted at the next initialisation (D-AP-16).
+    fn keep(&mut self, core: &mut Core, sub: u8, value: u8, mask: GroupMask) {
+        core.od.set_value(0x5F0A, sub, value as u32);
+        let _ = crate::storage::request(core, mask);
     }
 
     /// (Re)arms the external heartbeat (5F09h) at `now`: it runs in OPERATIONAL when 5F09h.01
