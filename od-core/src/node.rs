@@ -224,6 +224,14 @@ pub trait Device {
         let _ = (core, n, now);
     }
 
+    /// A remote frame asked for transmit PDO `n` (0-based) in OPERATIONAL: the answer is its
+    /// data ([`pdo::answer_rtr`]), which a device may extend (the AP10T's data identifier,
+    /// status word bit 9, is in remote answers only).
+    fn on_tpdo_rtr(&mut self, core: &mut Core, n: u8, now: Instant) {
+        let _ = now;
+        pdo::answer_rtr(core, n);
+    }
+
     /// A SYNC was received in PRE-OPERATIONAL or OPERATIONAL (after the synchronous TPDOs
     /// were sent and the synchronous RPDOs written).
     fn on_sync(&mut self, core: &mut Core, now: Instant) {
@@ -420,7 +428,8 @@ impl<D: Device> Node<D> {
                 }
             }
             _ => match pdo::on_frame(&mut self.core, frame, now) {
-                PdoEvent::None | PdoEvent::Rtr(_) => {}
+                PdoEvent::None => {}
+                PdoEvent::Rtr(n) => self.device.on_tpdo_rtr(&mut self.core, n, now),
                 PdoEvent::Sync { rpdos } => {
                     for n in 0..pdo::MAX_RPDOS as u8 {
                         if rpdos & (1 << n) != 0 {

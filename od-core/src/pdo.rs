@@ -63,7 +63,9 @@ pub enum PdoEvent {
     /// device that answers (the AP10T returns its set points) does so in `Device::on_rpdo_rtr`
     /// with [`reply`].
     RpdoRtr(u8),
-    /// A remote frame asked for TPDO `n` (0-based), which was sent.
+    /// A remote frame asked for TPDO `n` (0-based), which accepts it (OPERATIONAL, COB-ID
+    /// bit 30 = 0): the node answers through `Device::on_tpdo_rtr`, by default with
+    /// [`answer_rtr`] (the AP10T adds its data identifier to the answer).
     Rtr(u8),
 }
 
@@ -344,9 +346,6 @@ pub fn on_frame(core: &mut Core, frame: &Frame, now: Instant) -> PdoEvent {
                 if !t.rtr || !t.map.ok {
                     return PdoEvent::None;
                 }
-                let data = t.sample.unwrap_or_else(|| pack(&core.od, &t.map));
-                let (id, len) = (t.id, t.map.len);
-                core.out.send(Frame { id, rtr: false, len, data });
                 return PdoEvent::Rtr(n as u8);
             }
         }
@@ -454,6 +453,18 @@ pub fn poll(core: &mut Core, now: Instant) {
 /// When the next event-timer TPDO is due (`None` outside OPERATIONAL).
 pub fn next_deadline(core: &Core) -> Option<Instant> {
     core.pdo.deadline
+}
+
+/// Answers a remote request for TPDO `n` ([`PdoEvent::Rtr`]): the data sampled at the last
+/// SYNC (type FCh) or else its current data, on its identifier.
+pub fn answer_rtr(core: &mut Core, n: u8) {
+    let Some(t) = core.pdo.tpdos().get(n as usize) else { return };
+    if !t.valid || !t.map.ok {
+        return;
+    }
+    let data = t.sample.unwrap_or_else(|| pack(&core.od, &t.map));
+    let frame = Frame { id: t.id, rtr: false, len: t.map.len, data };
+    core.out.send(frame);
 }
 
 /// Sends TPDO `tpdo`'s current data on RPDO `rpdo`'s identifier: the answer to a remote

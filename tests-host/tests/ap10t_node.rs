@@ -237,7 +237,10 @@ fn d24_ascii_and_the_data_identifier_of_rtr_answers() {
     // An RTR on RPDO1's identifier reads set point 1 back, SW bit 9 = ASCII (D-AP-13).
     bus.send(Frame::remote(CanId::Std(0x27D), 8));
     bus.expect(0x27D, &[0x41, 0x50, 0x31, 0x30, 0x54, 0x20, 0x04, 0x02]);
-    // The SYNC TPDO2 carries bit 9 = 0; RPDO2's RTR answers set point 2 (none).
+    // So does an RTR on TPDO1's identifier; the timer and SYNC TPDOs carry bit 9 = 0.
+    bus.send(Frame::remote(CanId::Std(0x1FD), 8));
+    bus.expect(0x1FD, &[0x41, 0x50, 0x31, 0x30, 0x54, 0x20, 0x04, 0x02]);
+    // RPDO2's RTR answers set point 2 (none).
     bus.send(Frame::std(0x080, &[]));
     bus.expect(0x2FD, &[0, 0, 0, 0, 0, 0, 0x04, 0x00]);
     bus.send(Frame::remote(CanId::Std(0x37D), 8));

@@ -248,6 +248,17 @@ impl Ap10t {
         }
     }
 
+    /// Sends the answer to a remote request for set point `n` + 1 with `send`: only that
+    /// answer carries the data identifier in status word bit 9 (D-AP-13).
+    fn remote_answer(&self, core: &mut Core, n: u8, send: impl FnOnce(&mut Core)) {
+        let which = if n == 0 { Which::Sp1 } else { Which::Sp2 };
+        let plain = self.panel.status_word().bits();
+        let ascii = self.panel.set_points().get(which).ascii;
+        core.od.set_value(0x5F19, 0, (plain | if ascii { sw::ASCII } else { 0 }) as u32);
+        send(core);
+        core.od.set_value(0x5F19, 0, plain as u32);
+    }
+
     fn report(&mut self, core: &mut Core, now: Instant) {
         let c = &mut self.conditions;
         c.update(core, C_PASSIVE, EMCY_PASSIVE, self.passive, now);
@@ -353,13 +364,12 @@ impl Device for Ap10t {
 
     fn on_rpdo_rtr(&mut self, core: &mut Core, n: u8, now: Instant) {
         self.ensure_started(core, now);
-        let which = if n == 0 { Which::Sp1 } else { Which::Sp2 };
-        // The answer alone carries the data identifier (status word bit 9, D-AP-13).
-        let plain = self.panel.status_word().bits();
-        let ascii = self.panel.set_points().get(which).ascii;
-        core.od.set_value(0x5F19, 0, (plain | if ascii { sw::ASCII } else { 0 }) as u32);
-        pdo::reply(core, n, n);
-        core.od.set_value(0x5F19, 0, plain as u32);
+        self.remote_answer(core, n, |core| pdo::reply(core, n, n));
+    }
+
+    fn on_tpdo_rtr(&mut self, core: &mut Core, n: u8, now: Instant) {
+        self.ensure_started(core, now);
+        self.remote_answer(core, n, |core| pdo::answer_rtr(core, n));
     }
 
     fn on_sync(&mut self, core: &mut Core, now: Instant) {
