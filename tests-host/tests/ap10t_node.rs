@@ -308,6 +308,20 @@ fn d28_d30_emcy() {
     // 1003h keeps the two errors, the newest in sub 1.
     sdo(&mut bus, 0x7D, [0x40, 0x03, 0x10, 0x00, 0, 0, 0, 0], [0x4F, 0x03, 0x10, 0x00, 0x02, 0, 0, 0]);
     sdo(&mut bus, 0x7D, [0x40, 0x03, 0x10, 0x01, 0, 0, 0, 0], [0x43, 0x03, 0x10, 0x01, 0x40, 0x81, 0, 0]);
+    // CODE 200000 shows them on the display (D-AP-23): "←" "←" opens the list, "↑" "↑" CODE,
+    // "*" opens it; the sixth digit from the right to 2.
+    for key in [Key::Left, Key::Left, Key::Up, Key::Up, Key::Star] {
+        press(&mut bus, 0, key);
+        release(&mut bus, 0, key);
+    }
+    for key in [Key::Left, Key::Left, Key::Left, Key::Left, Key::Left, Key::Up, Key::Up, Key::Star] {
+        press(&mut bus, 0, key);
+        release(&mut bus, 0, key);
+    }
+    let t = lit(&bus);
+    assert_eq!(rows(&mut bus, 0, t), ["1    1", "8140"]);
+    press(&mut bus, 0, Key::Up);
+    assert_eq!(rows(&mut bus, 0, t), ["2    1", "8120"]);
 }
 
 #[test]

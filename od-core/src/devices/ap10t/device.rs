@@ -29,7 +29,7 @@ use crate::sdo::Written;
 use crate::time::Instant;
 
 use super::keys::Key;
-use super::menu::{Effect, ResetScope};
+use super::menu::{DiagEntry, Effect, ResetScope};
 use super::panel::{Panel, Params, View, PANEL_OBJECTS};
 use super::setpoint::Which;
 use super::table::{hooks, BITRATE_CODES, DEFAULT_NODE_ID, TABLE};
@@ -127,6 +127,23 @@ impl Ap10t {
         self.panel.next_change(now)
     }
 
+    /// The diagnosis list (CODE 200000) from the error history 1003h: each error code once,
+    /// the latest first, with how often the history holds it (D-AP-23).
+    fn diagnosis(core: &Core) -> heapless::Vec<DiagEntry, 8> {
+        let mut list: heapless::Vec<DiagEntry, 8> = heapless::Vec::new();
+        let n = core.od.value(0x1003, 0).unwrap_or(0).min(8) as u8;
+        for sub in 1..=n {
+            let code = core.od.value(0x1003, sub).unwrap_or(0) as u16;
+            match list.iter_mut().find(|e| e.code == code) {
+                Some(e) => e.count = e.count.saturating_add(1),
+                None => {
+                    let _ = list.push(DiagEntry { code, count: 1 });
+                }
+            }
+        }
+        list
+    }
+
     /// The panel parameters as the dictionary holds them.
     fn params(core: &Core) -> Params {
         let mut p = Params::FACTORY;
@@ -194,6 +211,7 @@ impl Ap10t {
     pub fn press(&mut self, core: &mut Core, key: Key, now: Instant) {
         self.ensure_started(core, now);
         self.panel.params = Ap10t::params(core);
+        self.panel.set_diagnosis(&Ap10t::diagnosis(core));
         let effect = self.panel.press(key, now);
         self.refresh(core);
         match effect {
