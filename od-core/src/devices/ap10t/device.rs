@@ -356,16 +356,14 @@ impl Device for Ap10t {
                 core.od.set(pos, value);
                 self.arm_heartbeat(core, now);
             }
-            hooks::AUTO_ID => {
-                // Only a display that still has the factory node-ID takes part (manual 4.6.2:
-                // "all devices that have the current Node-ID 7Dh"); the answer waits for the
-                // key. Elsewhere the value is only stored.
-                if core.node_id == DEFAULT_NODE_ID {
-                    if !self.panel.start_auto_id(value as u8) {
-                        return Err(Abort::INVALID_VALUE);
-                    }
-                    return Ok(Written::Deferred);
+            // Only a display that still has the factory node-ID takes part (manual 4.6.2: "all
+            // devices that have the current Node-ID 7Dh"); the answer waits for the key.
+            // Elsewhere the value is only stored.
+            hooks::AUTO_ID if core.node_id == DEFAULT_NODE_ID => {
+                if !self.panel.start_auto_id(value as u8) {
+                    return Err(Abort::INVALID_VALUE);
                 }
+                return Ok(Written::Deferred);
             }
             _ => {}
         }
