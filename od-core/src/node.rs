@@ -459,6 +459,8 @@ impl<D: Device> Node<D> {
                 self.core.bitrate = rate;
                 self.core.out.push(Output::SetBitrate(rate));
             }
+            // The device runs meanwhile (the AP10T's display test), off the bus.
+            self.device.poll(&mut self.core, now);
             return;
         }
         let event = lss::poll(&mut self.core, now);

@@ -11,6 +11,7 @@ use std::cell::Cell;
 use od_core::devices::ap10t::{Ap10t, Key, View};
 use od_core::node::{BusEvent, Core, Node, Output};
 use od_core::storage::Loaded;
+use od_core::time::earliest;
 use od_core::{Bitrate, Frame, Instant};
 
 use crate::segment::Station;
@@ -81,10 +82,14 @@ impl Station for Display {
     }
     fn poll(&mut self, now: Instant) {
         self.now.set(now);
-        self.node.poll(now)
+        if self.node.next_deadline().is_some_and(|t| t <= now) {
+            self.node.poll(now)
+        }
     }
+    /// The node's deadline, or earlier when the panel changes by itself (blinking, a menu
+    /// time-out), so that the live view shows it.
     fn next_deadline(&self) -> Option<Instant> {
-        self.node.next_deadline()
+        earliest(self.node.next_deadline(), self.node.device().next_change(self.now.get()))
     }
     fn next_output(&mut self) -> Option<Output> {
         self.node.next_output()
