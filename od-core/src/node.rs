@@ -163,6 +163,9 @@ pub struct DeviceRequests {
     pub sdo: Option<Result<(), Abort>>,
     /// Reset this way (after the SDO answer).
     pub reset: Option<ResetKind>,
+    /// Leave OPERATIONAL for PRE-OPERATIONAL, as an NMT 80h would (the AP10T's external
+    /// heartbeat ran out).
+    pub pre_operational: bool,
 }
 
 /// What a device (a CiA 406 encoder, the AP10T display ...) adds to the core.
@@ -488,6 +491,9 @@ impl<D: Device> Node<D> {
         if let Some(result) = req.sdo {
             let response = self.sdo.complete_deferred(result);
             self.send_sdo(response);
+        }
+        if req.pre_operational && self.core.nmt == NmtState::Operational {
+            self.on_nmt(NmtCommand::EnterPreOperational, now);
         }
         if let Some(kind) = req.reset {
             self.reset(kind, now);

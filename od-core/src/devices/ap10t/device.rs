@@ -75,6 +75,8 @@ const C_BUS_OFF: usize = 1;
 pub struct Ap10t {
     panel: Panel,
     started: bool,
+    /// The node is OPERATIONAL (as the last NMT change said).
+    operational: bool,
     /// The external heartbeat's deadline (5F09h), while it runs.
     heartbeat_due: Option<Instant>,
     /// A menu factory reset under way: what the next reset restores.
@@ -101,6 +103,7 @@ impl Ap10t {
         Ap10t {
             panel: Panel::new(Params::FACTORY),
             started: false,
+            operational: false,
             heartbeat_due: None,
             menu_reset: None,
             store_after_reset: false,
@@ -177,6 +180,7 @@ impl Ap10t {
         self.panel.params = Ap10t::params(core);
         self.can = CanDiagnosis::default();
         core.od.set_value(0x5000, 0, 0);
+        self.operational = false;
         self.heartbeat_due = None;
         self.refresh(core);
     }
@@ -255,7 +259,7 @@ impl Ap10t {
     /// is not 0.
     fn arm_heartbeat(&mut self, core: &Core, now: Instant) {
         let ms = core.od.value(0x5F09, 1).unwrap_or(0) as u64;
-        self.heartbeat_due = (core.nmt == NmtState::Operational && ms != 0).then(|| now.add_millis(ms));
+        self.heartbeat_due = (self.operational && ms != 0).then(|| now.add_millis(ms));
     }
 
     /// A trigger of the external heartbeat arrived: an RPDO (`sync` false) or a SYNC.
@@ -404,9 +408,11 @@ impl Device for Ap10t {
     fn on_nmt(&mut self, core: &mut Core, now: Instant) {
         self.ensure_started(core, now);
         // The external heartbeat starts on entering OPERATIONAL and stops on leaving it.
-        if core.nmt != NmtState::Operational {
+        let was = self.operational;
+        self.operational = core.nmt == NmtState::Operational;
+        if !self.operational {
             self.heartbeat_due = None;
-        } else if self.heartbeat_due.is_none() {
+        } else if !was {
             self.arm_heartbeat(core, now);
         }
     }
@@ -426,11 +432,9 @@ impl Device for Ap10t {
     fn poll(&mut self, core: &mut Core, now: Instant) {
         self.ensure_started(core, now);
         if self.heartbeat_due.is_some_and(|t| t <= now) {
+            // Ran out: the node goes to PRE-OPERATIONAL (D-AP-19).
             self.heartbeat_due = None;
-            if core.nmt == NmtState::Operational {
-                core.nmt = NmtState::PreOperational;
-                pdo::on_state(core, now);
-            }
+            self.requests.pre_operational = true;
         }
         self.report(core, now);
     }
