@@ -75,7 +75,8 @@ fn a_factory_display_joins_a_250_kbit_bus_silently() {
     let mut bus = Bus::new();
     bus.set_bitrate(Bitrate::K250);
     let n = factory(&mut bus);
-    // Silent while nobody talks, whatever the rate it tries.
+    // Silent while nobody talks, whatever the rate it tries; the controller runs silent.
+    assert!(display(&mut bus, n).node().listen_only());
     bus.advance(10 * DWELL_MS);
     bus.expect_silence();
     assert!(bus.log.is_empty());
@@ -83,6 +84,7 @@ fn a_factory_display_joins_a_250_kbit_bus_silently() {
     let (from, _) = traffic_until_boot_up(&mut bus, 10 * DWELL_MS).expect("detected");
     assert_eq!(from, n);
     assert_eq!(bus.node_bitrate(n), Bitrate::K250);
+    assert!(!display(&mut bus, n).node().listen_only());
     // Before the boot-up nothing came from the display.
     assert!(bus.log.iter().filter(|s| s.from == Sender::Node(n)).count() == 1);
     // 5F0Ah.03 reads the detected rate (code 2); a save keeps it: the next power-on needs no

@@ -465,3 +465,38 @@ impl Device for Ap10t {
         self.report(core, now);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn restored(d: &Ap10t, groups: GroupMask) -> impl Iterator<Item = (u16, u8)> + '_ {
+        TABLE.iter().filter(move |e| e.group != Group::None && d.restores(e, groups)).map(|e| (e.index, e.sub))
+    }
+
+    #[test]
+    fn restore_scopes_of_1011h_and_the_menu_codes() {
+        let mut d = Ap10t::new();
+        let comm = GroupMask::from_subindex(2).unwrap();
+        let app = GroupMask::from_subindex(3).unwrap();
+        let manuf = GroupMask::from_subindex(4).unwrap();
+        // Sub 2: exactly Table 4 (and 6200h, the same value as 1800h.05).
+        let mut bus: heapless::Vec<(u16, u8), 24> = restored(&d, comm).collect();
+        bus.sort();
+        let mut want: heapless::Vec<(u16, u8), 24> = BUS_PARAMETERS.iter().copied().collect();
+        want.push((0x6200, 0)).unwrap();
+        want.sort();
+        assert_eq!(bus, want);
+        // Sub 3: 6200h and 1800h.05; sub 4: the manufacturer range, 5F0Ah and 5F09h included.
+        assert!(restored(&d, app).eq([(0x1800, 5), (0x6200, 0)]));
+        assert!(restored(&d, manuf).all(|(i, _)| (0x2000..=0x5FFF).contains(&i)));
+        assert!(restored(&d, manuf).any(|x| x == (0x5F0A, 2)) && restored(&d, manuf).any(|x| x == (0x5F09, 1)));
+        assert_eq!(restored(&d, GroupMask::ALL).count(), TABLE.iter().filter(|e| e.group != Group::None).count());
+        // The menu CODEs.
+        d.menu_reset = Some(ResetScope::BusOnly);
+        assert!(restored(&d, GroupMask::ALL).eq(restored(&Ap10t::new(), comm)));
+        d.menu_reset = Some(ResetScope::AllExceptBus);
+        assert!(restored(&d, GroupMask::ALL).all(|(i, s)| !BUS_PARAMETERS.contains(&(i, s)) && (i, s) != (0x6200, 0)));
+        assert!(restored(&d, GroupMask::ALL).any(|x| x == (0x1003, 0)));
+    }
+}
