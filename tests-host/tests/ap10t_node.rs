@@ -393,3 +393,70 @@ fn panel_parameters_by_sdo_act_at_once() {
     abort(&mut bus, 0x7D, [0x2F, 0x05, 0x20, 0x02, 0x00, 0, 0, 0], 0x0609_0030);
     abort(&mut bus, 0x7D, [0x23, 0x05, 0x20, 0x03, 0x40, 0x42, 0x0F, 0], 0x0609_0030);
 }
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[derive(Clone, Debug)]
+    enum Step {
+        Frame { id: u16, rtr: bool, data: Vec<u8> },
+        Key { key: usize, down: bool },
+        Wait(u64),
+    }
+
+    fn step() -> impl Strategy<Value = Step> {
+        // Identifiers the display acts on, and some it does not.
+        let ids = prop_oneof![
+            Just(0x000u16),
+            Just(0x080),
+            Just(0x1FD),
+            Just(0x27D),
+            Just(0x2FD),
+            Just(0x37D),
+            Just(0x67D),
+            Just(0x77D),
+            0u16..0x800,
+        ];
+        prop_oneof![
+            4 => (ids, any::<bool>(), proptest::collection::vec(any::<u8>(), 0..=8))
+                .prop_map(|(id, rtr, data)| Step::Frame { id, rtr, data }),
+            2 => (0usize..4, any::<bool>()).prop_map(|(key, down)| Step::Key { key, down }),
+            1 => (0u64..3000).prop_map(Step::Wait),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+        /// Whatever arrives (frames of any length, RTRs, SDO writes, NMT, keys, time), nothing
+        /// panics, and the dictionary's views (5F19h, 5F1Dh) say what the panel holds.
+        #[test]
+        fn the_dictionary_follows_the_panel(steps in proptest::collection::vec(step(), 1..60)) {
+            let mut bus = ap10t(0x7D);
+            start(&mut bus, 0x7D);
+            for s in steps {
+                match s {
+                    Step::Frame { id, rtr, data } => {
+                        let f = if rtr { Frame::remote(CanId::Std(id), data.len() as u8) } else { Frame::std(id, &data) };
+                        bus.send(f);
+                    }
+                    Step::Key { key, down } => {
+                        let key = Key::ALL[key];
+                        if down { press(&mut bus, 0, key) } else { release(&mut bus, 0, key) }
+                    }
+                    Step::Wait(ms) => bus.advance(ms),
+                }
+                bus.drain();
+                let d = display(&mut bus, 0);
+                let panel = d.node().device().panel();
+                let od = &d.node().core().od;
+                prop_assert_eq!(od.value(0x5F19, 0), Some(panel.status_word().bits() as u32));
+                let b = panel.set_points().sp[0].bytes;
+                prop_assert_eq!(od.value(0x5F1D, 3), Some(u32::from_le_bytes([b[0], b[1], b[2], b[3]])));
+                let b = panel.set_points().sp[1].bytes;
+                prop_assert_eq!(od.value(0x5F1D, 2), Some(u16::from_le_bytes([b[4], b[5]]) as u32));
+            }
+        }
+    }
+}
