@@ -19,7 +19,7 @@ use embassy_stm32::can::{
     BufferedCanRx, Can, CanTx, ExtendedId, Fifo, Frame as HwFrame, Id, Mailbox, RxBuf as HwRxBuf, StandardId,
 };
 use embassy_stm32::pac;
-use embassy_time::{with_timeout, Duration};
+use embassy_time::{with_deadline, Duration, Instant};
 use heapless::Vec;
 use od_core::node::BusEvent;
 use od_core::{Bitrate, CanId, Frame};
@@ -135,7 +135,7 @@ impl Bus {
     /// recessive bits; `silent`: in silent mode (it sends nothing, not even an ACK or an error
     /// frame, while the node detects the rate, `Node::listen_only`).
     pub async fn set_bitrate(&mut self, rate: Bitrate, silent: bool) {
-        let _ = with_timeout(FLUSH_TIMEOUT, async {
+        let _ = with_deadline(crate::wake_at(Instant::now() + FLUSH_TIMEOUT), async {
             loop {
                 self.pump();
                 let empty = self.queue.is_empty();

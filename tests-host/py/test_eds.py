@@ -1,11 +1,15 @@
 """Reads every checked-in EDS (eds/*.eds) with python-canopen, as an integrator's tool would,
 and checks that each (index, sub-index) of the device table (the JSON dump next to it, written
 by the Rust generator's test) is there with its name, data type, access, PDO mapping, default
-and limits. Run: pytest tests-host/py/test_eds.py
+and limits; and checks every EDS with `dcfchk` of Lely's dcf-tools, a CiA 306 checker, which
+must pass without a warning. Run: pytest tests-host/py/test_eds.py
 """
 
 import json
 import pathlib
+import shutil
+import subprocess
+import sys
 
 import canopen
 import pytest
@@ -74,3 +78,25 @@ def test_device_info(eds):
     assert info.product_name == table[(0x1008, 0)]["default"]
     assert info.allowed_baudrates
     assert info.nr_of_TXPDO == len({i for (i, _) in table if 0x1800 <= i <= 0x19FF})
+
+
+def dcfchk():
+    """The dcfchk of the environment running the tests (the virtual environment's)."""
+    here = pathlib.Path(sys.executable).parent / "dcfchk"
+    return str(here) if here.exists() else shutil.which("dcfchk")
+
+
+def test_dcfchk_is_installed():
+    assert dcfchk(), "dcfchk not found: pip install -r tests-host/py/requirements.txt"
+
+
+@pytest.mark.parametrize("eds", EDS_FILES, ids=[p.name for p in EDS_FILES])
+def test_dcfchk_passes(eds):
+    # Node-ID 5 resolves the $NODEID defaults; every warning (a DefaultValue outside its
+    # limits, say) is a failure too.
+    run = subprocess.run(
+        [sys.executable, "-W", "error", dcfchk(), "-n", str(NODE_ID), str(eds)],
+        capture_output=True,
+        text=True,
+    )
+    assert run.returncode == 0 and not run.stderr.strip() and not run.stdout.strip(), run.stdout + run.stderr

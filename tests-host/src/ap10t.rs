@@ -9,7 +9,10 @@ use std::any::Any;
 use std::cell::Cell;
 
 use od_core::devices::ap10t::{Ap10t, Key, View};
-use od_core::node::{BusEvent, Core, Node, Output};
+use od_core::lss::Lss;
+use od_core::nmt::NmtState;
+use od_core::node::{BusEvent, Context, Node, Output};
+use od_core::shell::RxIds;
 use od_core::storage::Loaded;
 use od_core::time::earliest;
 use od_core::{Bitrate, Frame, Instant};
@@ -75,10 +78,13 @@ impl Display {
     }
 }
 
-impl Station for Display {
+impl od_core::Station for Display {
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
         self.now.set(now);
         self.node.on_frame(frame, now)
+    }
+    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.bus_event(event, now)
     }
     fn poll(&mut self, now: Instant) {
         self.now.set(now);
@@ -94,11 +100,29 @@ impl Station for Display {
     fn next_output(&mut self) -> Option<Output> {
         self.node.next_output()
     }
-    fn store_done(&mut self, ok: bool, now: Instant) {
-        self.node.store_done(if ok { Ok(()) } else { Err(()) }, now)
+    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.node.store_done(result, now)
     }
-    fn core(&self) -> &Core {
-        self.node.core()
+    fn rx_ids(&self) -> RxIds {
+        self.node.rx_ids()
+    }
+    fn rx_ids_generation(&self) -> u32 {
+        self.node.rx_ids_generation()
+    }
+    fn context(&self) -> &Context {
+        self.node.context()
+    }
+    fn listen_only(&self) -> bool {
+        self.node.listen_only()
+    }
+}
+
+impl Station for Display {
+    fn nmt(&self) -> Option<NmtState> {
+        Some(self.node.nmt_state())
+    }
+    fn lss(&self) -> Option<&Lss> {
+        Some(self.node.lss())
     }
     fn panel(&self) -> Option<String> {
         Some(self.view(self.now.get()).to_string())

@@ -15,8 +15,10 @@
 
 use std::fmt::Write;
 
-use od_core::node::Device;
-use od_core::od::{Access, DataType, Default, Entry, Kind};
+use od_core::devices::wv5800m::{table_of, Model, Turns, Variant};
+use od_core::node::{CanopenDevice, Device};
+use od_core::od::{Access, CoreHook, DataType, Default, Entry, Hook, Kind};
+use od_core::pdo::{rpdo_type_allowed, tpdo_type_allowed};
 use od_core::Bitrate;
 
 use crate::TableOnly;
@@ -48,71 +50,118 @@ pub struct EdsInfo {
     pub lss: bool,
 }
 
-/// The devices whose EDS is checked in under `eds/`: (info, dictionary).
-pub fn devices() -> Vec<(EdsInfo, &'static [Entry])> {
+/// Which product an EDS describes: what a test needs to power one on and probe it.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Part {
+    /// SGH10 or SGH10L (one dictionary, D-SGH10-7).
+    Sgh10,
+    /// SGH50, single or either channel of the redundant version (D-SGH50-4).
+    Sgh50,
+    /// One of the eight WV5800M / WH5800M part numbers (D-WV-1).
+    Wv5800m(Variant),
+    /// The AP10T set point display.
+    Ap10t,
+}
+
+/// One checked-in EDS: what it says beyond the dictionary, the dictionary, and the part.
+#[derive(Clone, Debug)]
+pub struct EdsDevice {
+    /// File info.
+    pub info: EdsInfo,
+    /// The dictionary.
+    pub table: &'static [Entry],
+    /// The product.
+    pub part: Part,
+}
+
+/// The file name of a WV5800M / WH5800M part number's EDS: the model's name, and the number of
+/// revolutions unless it is the 12-bit multiturn (4096), the default build and simulator variant
+/// (`WV5800M.eds`, `WV5800M-256.eds`, `WV5800M-16.eds`, `WV5800M-1.eds`, and so for WH5800M).
+pub fn wv5800m_file_name(variant: Variant) -> String {
+    match variant.turns {
+        Turns::Multi12 => format!("{}.eds", variant.model.name()),
+        t => format!("{}-{}.eds", variant.model.name(), t.revolutions()),
+    }
+}
+
+/// The eight WV5800M / WH5800M part numbers.
+pub fn wv5800m_variants() -> Vec<Variant> {
+    let mut v = Vec::new();
+    for model in [Model::Wv, Model::Wh] {
+        for turns in [Turns::Multi12, Turns::Multi8, Turns::Multi4, Turns::Single] {
+            v.push(Variant { model, turns });
+        }
+    }
+    v
+}
+
+fn leak(s: String) -> &'static str {
+    Box::leak(s.into_boxed_str())
+}
+
+/// The devices whose EDS is checked in under `eds/`, one per part number (D-EDS-1).
+pub fn devices() -> Vec<EdsDevice> {
     let sgh10 = TableOnly(od_core::devices::sgh10::TABLE);
     // The redundant version's second encoder differs only in the 5F0Ah.01 default (2): one
     // file serves both, as configurators take the node-ID from the network.
     let sgh50 = TableOnly(od_core::devices::sgh50::TABLE);
-    // The WV5800M file describes the 12-bit multiturn WV5800M; the other seven variants differ
-    // in 1000h, 1008h and the range-dependent defaults and limits only.
-    let wv5800m = TableOnly(od_core::devices::wv5800m::table_of(od_core::devices::wv5800m::Variant {
-        model: od_core::devices::wv5800m::Model::Wv,
-        turns: od_core::devices::wv5800m::Turns::Multi12,
-    }));
+    let base =
+        |file_name: &'static str, description: &'static str, order_code: &'static str, device: &TableOnly| EdsInfo {
+            file_name,
+            description,
+            file_version: 1,
+            file_revision: 1,
+            creation_date: "11-24-2026",
+            creation_time: "12:00PM",
+            created_by: "SIKO GmbH",
+            vendor_name: "SIKO GmbH",
+            order_code,
+            bitrates: rates(device),
+            lss: device.has_lss(),
+        };
+    let mut v = vec![
+        EdsDevice {
+            info: base(
+                "SGH10.eds",
+                "SIKO SGH10 / SGH10L absolute wire-actuated encoder, CANopen (CiA 301, CiA 406, CiA 305)",
+                "SGH10",
+                &sgh10,
+            ),
+            table: sgh10.table(),
+            part: Part::Sgh10,
+        },
+        EdsDevice {
+            info: base(
+                "SGH50.eds",
+                "SIKO SGH50 absolute wire-actuated encoder, single or redundant, CANopen (CiA 301, CiA 406, CiA 305)",
+                "SGH50",
+                &sgh50,
+            ),
+            table: sgh50.table(),
+            part: Part::Sgh50,
+        },
+    ];
+    for variant in wv5800m_variants() {
+        let device = TableOnly(table_of(variant));
+        let range = match variant.turns {
+            Turns::Single => "singleturn".to_string(),
+            t => format!("{}-bit multiturn ({} revolutions)", t.revolutions().trailing_zeros(), t.revolutions()),
+        };
+        let name = variant.model.name();
+        let file = leak(wv5800m_file_name(variant));
+        let description =
+            leak(format!("SIKO {name} absolute rotary encoder, {range}, CANopen (CiA 301, CiA 406, CiA 305)"));
+        let order_code = leak(file.trim_end_matches(".eds").to_string());
+        v.push(EdsDevice {
+            info: base(file, description, order_code, &device),
+            table: device.table(),
+            part: Part::Wv5800m(variant),
+        });
+    }
     // The AP10T: its own bit-rate coding (5F0Ah.03) and no LSS.
     let ap10t = od_core::devices::ap10t::Ap10t::new();
-    vec![
-        (
-        EdsInfo {
-            file_name: "SGH10.eds",
-            description: "SIKO SGH10 / SGH10L absolute wire-actuated encoder, CANopen (CiA 301, CiA 406, CiA 305)",
-            file_version: 1,
-            file_revision: 0,
-            creation_date: "11-24-2026",
-            creation_time: "12:00PM",
-            created_by: "SIKO GmbH",
-            vendor_name: "SIKO GmbH",
-            order_code: "SGH10",
-            bitrates: rates(&sgh10),
-            lss: sgh10.has_lss(),
-        },
-        sgh10.table(),
-    ),
-    (
-        EdsInfo {
-            file_name: "SGH50.eds",
-            description: "SIKO SGH50 absolute wire-actuated encoder, single or redundant, CANopen (CiA 301, CiA 406, CiA 305)",
-            file_version: 1,
-            file_revision: 0,
-            creation_date: "11-24-2026",
-            creation_time: "12:00PM",
-            created_by: "SIKO GmbH",
-            vendor_name: "SIKO GmbH",
-            order_code: "SGH50",
-            bitrates: rates(&sgh50),
-            lss: sgh50.has_lss(),
-        },
-        sgh50.table(),
-    ),
-    (
-        EdsInfo {
-            file_name: "WV5800M.eds",
-            description: "SIKO WV5800M absolute rotary encoder, 12-bit multiturn, CANopen (CiA 301, CiA 406, CiA 305)",
-            file_version: 1,
-            file_revision: 0,
-            creation_date: "11-24-2026",
-            creation_time: "12:00PM",
-            created_by: "SIKO GmbH",
-            vendor_name: "SIKO GmbH",
-            order_code: "WV5800M",
-            bitrates: rates(&wv5800m),
-            lss: wv5800m.has_lss(),
-        },
-        wv5800m.table(),
-    ),
-    (
-        EdsInfo {
+    v.push(EdsDevice {
+        info: EdsInfo {
             file_name: "AP10T.eds",
             description: "SIKO AP10T set point display, CANopen (CiA 301; CiA 406 objects, no LSS)",
             file_version: 1,
@@ -125,8 +174,75 @@ pub fn devices() -> Vec<(EdsInfo, &'static [Entry])> {
             bitrates: rates(&ap10t),
             lss: ap10t.has_lss(),
         },
-        ap10t.table(),
-    )]
+        table: ap10t.table(),
+        part: Part::Ap10t,
+    });
+    v
+}
+
+/// The limits the EDS declares for `e` (D-EDS-2): the declared range of the entry, narrowed by
+/// the value rules the core's write hooks enforce. CiA 306 has only LowLimit/HighLimit, so a
+/// set with holes is declared by its smallest and largest accepted value; the holes are listed
+/// in the file's `[Comments]` (see [`holes`]). Bit-pattern rules (COB-IDs) and command
+/// signatures (1010h "save", 1011h "load") are not ranges and are not declared.
+pub fn declared_limits(table: &[Entry], e: &Entry) -> Option<(i64, i64)> {
+    match allowed_u8(table, e) {
+        Some(allowed) => {
+            let lo = (0..=255u8).find(|v| allowed(*v))? as i64;
+            let hi = (0..=255u8).rev().find(|v| allowed(*v))? as i64;
+            // The whole type without a hole is no limit; with holes (the AP10T's RPDO types:
+            // 0..240, FEh, FFh) the range is declared so that its holes can be.
+            if (lo, hi) == (0, 255) && (0..=255u8).all(&allowed) {
+                None
+            } else {
+                Some((lo, hi))
+            }
+        }
+        None => e.limits(),
+    }
+}
+
+/// For the 8-bit entries whose accepted values a core hook decides (transmission types, 1003h
+/// sub 0): the accepted set, within the entry's own limits.
+fn allowed_u8(table: &[Entry], e: &Entry) -> Option<Box<dyn Fn(u8) -> bool>> {
+    let own = e.limits();
+    let within = move |v: u8| own.is_none_or(|(lo, hi)| (lo..=hi).contains(&(v as i64)));
+    let rule: Box<dyn Fn(u8) -> bool> = match e.hook {
+        Hook::Core(CoreHook::PdoTransmissionType) if (0x1800..=0x19FF).contains(&e.index) => {
+            // D-PDO-3: a writable event timer makes the TPDO asynchronous.
+            let asynchronous = table.iter().any(|x| x.index == e.index && x.sub == 5 && x.access.writable());
+            Box::new(move |v| tpdo_type_allowed(asynchronous, v))
+        }
+        Hook::Core(CoreHook::PdoTransmissionType) => Box::new(rpdo_type_allowed),
+        // D-EMCY-6: only 0 (clear the history).
+        Hook::Core(CoreHook::ErrorHistory) => Box::new(|v| v == 0),
+        _ => return None,
+    };
+    Some(Box::new(move |v| within(v) && rule(v)))
+}
+
+/// The values between an entry's declared limits that it refuses, as ranges (1801h sub 2 of the
+/// SGH10: 241..=251): what LowLimit/HighLimit cannot say. Only for the 8-bit entries whose set a
+/// core hook decides, and 1017h (D-HB-1: 1..9 refused).
+pub fn holes(table: &[Entry], e: &Entry) -> Vec<(i64, i64)> {
+    // 1017h (D-HB-1) and the AP10T's external heartbeat 5F09h.01 (D-AP-19): 1..9 ms refused.
+    let external_heartbeat = (e.index, e.sub) == (0x5F09, 1)
+        && e.hook == Hook::Device(od_core::devices::ap10t::table::hooks::EXTERNAL_HEARTBEAT);
+    let refused: Vec<i64> = if e.hook == Hook::Core(CoreHook::HeartbeatTime) || external_heartbeat {
+        (1..=9).collect()
+    } else if let (Some(allowed), Some((lo, hi))) = (allowed_u8(table, e), declared_limits(table, e)) {
+        (lo..=hi).filter(|v| !allowed(*v as u8)).collect()
+    } else {
+        Vec::new()
+    };
+    let mut out: Vec<(i64, i64)> = Vec::new();
+    for v in refused {
+        match out.last_mut() {
+            Some((_, hi)) if *hi + 1 == v => *hi = v,
+            _ => out.push((v, v)),
+        }
+    }
+    out
 }
 
 /// The bit rates a device's pending bit-rate entry can select.
@@ -184,14 +300,14 @@ fn object_name(e: &Entry) -> &'static str {
 }
 
 /// Writes the keys of one variable (a VAR object or a sub-index).
-fn variable(out: &mut String, e: &Entry) {
+fn variable(out: &mut String, table: &[Entry], e: &Entry) {
     let _ = writeln!(out, "ParameterName={}", e.name);
     let _ = writeln!(out, "ObjectType=0x7");
     let _ = writeln!(out, "DataType=0x{:04X}", e.dtype as u16);
     let _ = writeln!(out, "AccessType={}", access(e.access));
     let _ = writeln!(out, "DefaultValue={}", default_value(e));
     let _ = writeln!(out, "PDOMapping={}", e.pdo as u8);
-    if let Some((lo, hi)) = e.limits() {
+    if let Some((lo, hi)) = declared_limits(table, e) {
         let _ = writeln!(out, "LowLimit={}", limit(lo));
         let _ = writeln!(out, "HighLimit={}", limit(hi));
     }
@@ -221,6 +337,23 @@ fn mandatory(index: u16) -> bool {
 /// Is the object manufacturer-specific (2000h-5FFFh)?
 fn manufacturer(index: u16) -> bool {
     (0x2000..=0x5FFF).contains(&index)
+}
+
+/// The `[Comments]` lines: the values inside an entry's LowLimit..HighLimit that it refuses.
+fn comments(table: &[Entry]) -> Vec<String> {
+    let mut lines = Vec::new();
+    for e in table {
+        let holes = holes(table, e);
+        if holes.is_empty() {
+            continue;
+        }
+        let list: Vec<String> = holes
+            .iter()
+            .map(|&(lo, hi)| if lo == hi { limit(lo) } else { format!("{}..{}", limit(lo), limit(hi)) })
+            .collect();
+        lines.push(format!("{:04X}sub{:X} refuses {} (SDO abort 06090030h)", e.index, e.sub, list.join(", ")));
+    }
+    lines
 }
 
 /// The EDS text of the device `table` described by `info`.
@@ -277,6 +410,15 @@ pub fn generate(info: &EdsInfo, table: &[Entry]) -> String {
         let _ = writeln!(w, "Dummy{n:04}=0");
     }
     w.push('\n');
+    let comments = comments(table);
+    if !comments.is_empty() {
+        let _ = writeln!(w, "[Comments]");
+        let _ = writeln!(w, "Lines={}", comments.len());
+        for (n, line) in comments.iter().enumerate() {
+            let _ = writeln!(w, "Line{}={line}", n + 1);
+        }
+        w.push('\n');
+    }
     object_list(w, "MandatoryObjects", &objects(table, mandatory));
     object_list(w, "OptionalObjects", &objects(table, |i| !mandatory(i) && !manufacturer(i)));
     object_list(w, "ManufacturerObjects", &objects(table, manufacturer));
@@ -284,7 +426,7 @@ pub fn generate(info: &EdsInfo, table: &[Entry]) -> String {
         match e.kind {
             Kind::Var => {
                 let _ = writeln!(w, "[{:04X}]", e.index);
-                variable(w, e);
+                variable(w, table, e);
             }
             Kind::Head { .. } => {
                 let subs = table[pos..].iter().take_while(|x| x.index == e.index).count();
@@ -294,11 +436,11 @@ pub fn generate(info: &EdsInfo, table: &[Entry]) -> String {
                 let _ = writeln!(w, "SubNumber={subs}");
                 w.push('\n');
                 let _ = writeln!(w, "[{:04X}sub0]", e.index);
-                variable(w, e);
+                variable(w, table, e);
             }
             Kind::Member => {
                 let _ = writeln!(w, "[{:04X}sub{:X}]", e.index, e.sub);
-                variable(w, e);
+                variable(w, table, e);
             }
         }
         w.push('\n');
@@ -338,7 +480,7 @@ pub fn table_json(table: &[Entry]) -> String {
             Default::PlusNodeId(b) => (b.to_string(), true),
             Default::Str(s) => (json_str(s), false),
         };
-        let (lo, hi) = match e.limits() {
+        let (lo, hi) = match declared_limits(table, e) {
             Some((lo, hi)) => (lo.to_string(), hi.to_string()),
             None => ("null".into(), "null".into()),
         };

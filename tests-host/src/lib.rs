@@ -2,6 +2,7 @@
 //! scenario tests replay the manuals' examples, and (in `sim`) the real-time simulator.
 
 pub mod ap10t;
+pub mod bench;
 pub mod bus;
 pub mod eds;
 pub mod encoder;
@@ -9,7 +10,7 @@ pub mod flash;
 pub mod segment;
 pub mod sim;
 
-use od_core::node::Device;
+use od_core::node::{CanopenDevice, Device};
 use od_core::od::Entry;
 
 /// A device with a dictionary and no behaviour of its own: what the communication-profile
@@ -22,3 +23,5 @@ impl Device for TableOnly {
         self.0
     }
 }
+
+impl CanopenDevice for TableOnly {}

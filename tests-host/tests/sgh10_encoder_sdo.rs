@@ -218,6 +218,9 @@ fn profile_identity_objects_read_as_the_manual_prints_them() {
         (0x650A, 3, 0x0000_77FD),
         (0x650B, 0, SERIAL),
         (0x1018, 4, SERIAL),
+        // A12: the printed "FFFFFFFh" is one F short.
+        (0x1018, 2, 0xFFFF_FFFF),
+        (0x1018, 3, 0xFFFF_FFFF),
         (0x6401, 1, 0xFFFF_B002),
         (0x6402, 2, 0x0000_77FD),
     ] {

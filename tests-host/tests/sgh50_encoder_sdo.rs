@@ -148,3 +148,48 @@ fn n7_heartbeat_of_the_sgh50() {
     bus.advance(100);
     bus.expect(0x701, &[0x05]);
 }
+
+/// 5F09h switches the internal bus termination at once (D-SGH50-5): the board follows
+/// `sgh50::bus_termination`. Unsaved, it is off again after a Reset Node; saved, it stays on.
+#[test]
+fn bus_termination_follows_5f09h() {
+    let (mut bus, _) = sgh50(Variant::Single, 0);
+    assert!(!sgh50::bus_termination(bus.station(0).core()));
+    sdo_write(&mut bus, 1, 0x5F09, 0, 1, 1);
+    assert!(sgh50::bus_termination(bus.station(0).core()));
+    sdo_write_abort(&mut bus, 1, 0x5F09, 0, 1, 2, 0x0609_0030);
+    assert!(sgh50::bus_termination(bus.station(0).core()));
+    bus.send(Frame::std(0x000, &[0x81, 0x01]));
+    bus.expect(0x701, &[0x00]);
+    assert!(!sgh50::bus_termination(bus.station(0).core()), "not saved: off after Reset Node");
+    sdo_write(&mut bus, 1, 0x5F09, 0, 1, 1);
+    sdo_write(&mut bus, 1, 0x1010, 4, 4, 0x6576_6173);
+    bus.send(Frame::std(0x000, &[0x81, 0x01]));
+    bus.expect(0x701, &[0x00]);
+    assert!(sgh50::bus_termination(bus.station(0).core()), "saved: on after Reset Node");
+    sdo_write(&mut bus, 1, 0x5F09, 0, 1, 0);
+    assert!(!sgh50::bus_termination(bus.station(0).core()));
+}
+
+/// SGH50 A4 (D-SDO-4): the 5 bytes of "SGH50" come in one last segment whose command byte is
+/// 05h (n = 2 unused bytes, c = 1), as CiA 301 encodes it, not the manual's 03h; the printed
+/// index bytes in the segment request (E3c) are ignored.
+#[test]
+fn a4_device_name_last_segment_is_05h() {
+    let (mut bus, _) = sgh50(Variant::Single, 0);
+    bus.send(Frame::std(0x601, &[0x40, 0x08, 0x10, 0x00, 0, 0, 0, 0]));
+    bus.expect(0x581, &[0x41, 0x08, 0x10, 0x00, 0x05, 0x00, 0x00, 0x00]);
+    bus.send(Frame::std(0x601, &[0x60, 0x08, 0x10, 0x00, 0, 0, 0, 0]));
+    bus.expect(0x581, &[0x05, b'S', b'G', b'H', b'5', b'0', 0x00, 0x00]);
+}
+
+/// SGH50 A3: TPDO1's COB-ID is 180h + node-ID (Table 2), on either channel.
+#[test]
+fn a3_tpdo1_cob_id_is_180h_plus_node_id() {
+    for variant in [Variant::Single, Variant::Redundant(Channel::Second)] {
+        let (mut bus, _) = sgh50(variant, 0);
+        let id = variant.default_node_id();
+        let answer = sdo_read(&mut bus, id, 0x1800, 1);
+        assert_eq!(answer, 0x180 + id as u32);
+    }
+}

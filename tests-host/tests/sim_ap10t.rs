@@ -14,7 +14,7 @@ use tests_host::sim::socketcand as sc;
 #[test]
 fn the_registry_builds_an_ap10t_that_shows_its_panel() {
     let r = Registry::new(None);
-    let plan = r.build(&parse_device("ap10t:node=5").unwrap(), 1).unwrap().pop().unwrap();
+    let plan = r.build(&parse_device("ap10t:node=5").unwrap(), 1, 0).unwrap().pop().unwrap();
     assert_eq!(plan.label, "AP10T");
     let mut params = plan.params;
     let mut node = (plan.boot)(&params.load());
@@ -25,7 +25,7 @@ fn the_registry_builds_an_ap10t_that_shows_its_panel() {
     node.poll(od_core::Instant::from_millis(1000));
     assert_eq!(node.panel().as_deref(), Some("[   ---|   ---] LED off/off light white+red"));
     for bad in ["ap10t:redundant=true", "ap10t:serial=5", "ap10t:motion=ramp:5"] {
-        assert!(r.build(&parse_device(bad).unwrap(), 1).is_err(), "{bad}");
+        assert!(r.build(&parse_device(bad).unwrap(), 1, 0).is_err(), "{bad}");
     }
 }
 

@@ -144,3 +144,31 @@ fn calibration_survives_a_power_cycle_only_when_saved() {
     assert_eq!(sdo_read(&mut bus, 1, 0x6004, 0), 40_100);
     assert_eq!(sdo_read(&mut bus, 1, 0x6509, 0), 0);
 }
+
+/// 2002h = 0, its printed default, is accepted and calibrates nothing (D-WV-4): a configuration
+/// tool that writes an EDS's DefaultValue back gets no abort and the position stays.
+#[test]
+fn calibrate_0_is_accepted_and_changes_nothing() {
+    let (mut bus, _) = wv(MT12, 1000);
+    let before = value(bus.station(0).core(), 0x6004, 0);
+    let calibration = value(bus.station(0).core(), 0x6509, 0);
+    sdo_write(&mut bus, 1, 0x2002, 0, 1, 0);
+    assert_eq!(value(bus.station(0).core(), 0x6004, 0), before);
+    assert_eq!(value(bus.station(0).core(), 0x6509, 0), calibration);
+    sdo_write_abort(&mut bus, 1, 0x2002, 0, 1, 2, 0x0609_0030);
+    sdo_write(&mut bus, 1, 0x2002, 0, 1, 1);
+    assert_eq!(value(bus.station(0).core(), 0x6004, 0), 0);
+}
+
+/// WV5800M 19, 20 (D-SDO-4): "WV5800M" (7 bytes) comes in one last segment with command byte
+/// 01h (n = 0, c = 1), as the manual's example and CiA 301 have it; a segment request that
+/// carries index and sub-index (the manual's example) is answered alike. 1018h sub 2 and 3 read
+/// FFFFFFFFh (WV5800M 14: the printed "FFFFFFFh" is one F short).
+#[test]
+fn device_name_segment_and_identity() {
+    let (mut bus, _) = wv(MT12, 1000);
+    exchange(&mut bus, [0x40, 0x08, 0x10, 0x00, 0, 0, 0, 0], [0x41, 0x08, 0x10, 0x00, 0x07, 0x00, 0x00, 0x00]);
+    exchange(&mut bus, [0x60, 0x08, 0x10, 0x00, 0, 0, 0, 0], [0x01, b'W', b'V', b'5', b'8', b'0', b'0', b'M']);
+    assert_eq!(sdo_read(&mut bus, 1, 0x1018, 2), 0xFFFF_FFFF);
+    assert_eq!(sdo_read(&mut bus, 1, 0x1018, 3), 0xFFFF_FFFF);
+}

@@ -11,7 +11,8 @@ pub const DRUM_UM_PER_TURN: u32 = 100_000;
 /// The SGH10 board.
 pub type Board = WireBoard<Variant>;
 
-/// Initialises the MCU (clocks) and takes the board's peripherals.
+/// Initialises the MCU (clocks) and takes the board's peripherals. The SGH10 has no bus
+/// termination switch: PB0 stays an input, as after reset.
 pub fn take() -> Board {
-    wire::take(Straps::sgh10, DRUM_UM_PER_TURN)
+    wire::take(Straps::sgh10, DRUM_UM_PER_TURN, |sensor, _| sensor)
 }

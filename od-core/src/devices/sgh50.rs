@@ -12,10 +12,11 @@
 //! measuring range; the SGH50 manual lists no speed EMCY.
 
 use crate::abort::Abort;
+use crate::context::{BusEvent, Context as Core, ResetKind};
+use crate::device::{CanopenDevice, Device, Link};
 use crate::devices::comm::{self, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
 use crate::encoder::linear::{Linear, LinearSpec};
-use crate::encoder::{Encoder, SensorFault};
-use crate::node::{BusEvent, Core, Device, ResetKind};
+use crate::encoder::{Encoder, SensorFault, CYCLE_TIMER_LINK};
 use crate::od::{Access::*, DataType::*, Entry, Group, Hook};
 use crate::time::Instant;
 
@@ -45,7 +46,7 @@ const PROFILE: Profile = Profile {
     device_name: Some("SGH50"),
     hardware_version: Some("V100"),
     software_version: "V100",
-    identity: Identity::siko(Serial::Factory(0)),
+    identity: Identity::siko(Serial::Factory(1)),
     heads: Const,
     canopen: Some(CanOpen {
         rpdos: &[],
@@ -69,6 +70,7 @@ const fn table(node_id: u8) -> [Entry; ENTRIES] {
         comm::node_id_and_bitrate(&NodeIdAndBitrate::new(node_id, (1, 127), DEFAULT_BITRATE_CODE, (1, 7))).as_slice(),
         &[
             Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, 0x0004)
+                .range(0x0004, 0x000C)
                 .group(APP)
                 .hook(dev(hooks::OPERATING_PARAMETERS)),
             Entry::var(0x6002, "Total number of measuring steps", Unsigned32, Rw, 73840).group(APP),
@@ -137,6 +139,14 @@ static TABLE_2: [Entry; ENTRIES] = table(SECOND_NODE_ID);
 pub static TABLE: &[Entry] = &TABLE_1;
 /// The dictionary of the redundant version's second encoder: 5F0Ah.01 defaults to 2.
 pub static TABLE_SECOND: &[Entry] = &TABLE_2;
+
+/// Is the internal CAN bus termination switched on (D-SGH50-5)? 5F09h = 1 switches it on, 0
+/// off, at once (the SDO write is the switch), and the value the node powers on or resets with
+/// (stored, or the default 0) is what the board applies from then on. The board drives its
+/// termination switch from this at every turn of its loop.
+pub fn bus_termination(core: &Core) -> bool {
+    core.od.value(0x5F09, 0) == Some(1)
+}
 
 /// The SGH50's measuring range and timing.
 pub const SPEC: LinearSpec = LinearSpec {
@@ -207,6 +217,10 @@ impl Device for Sgh50 {
         }
     }
 
+    fn link(&self, e: &Entry) -> Option<Link> {
+        (e.hook == Hook::Device(hooks::CYCLE_TIMER)).then_some(CYCLE_TIMER_LINK)
+    }
+
     fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
         self.linear.on_write(core, pos, value, now)
     }
@@ -223,6 +237,8 @@ impl Device for Sgh50 {
         self.linear.on_bus_event(core, event, now);
     }
 }
+
+impl CanopenDevice for Sgh50 {}
 
 impl Encoder for Sgh50 {
     fn on_sample(&mut self, core: &mut Core, raw: Result<u32, SensorFault>, now: Instant) {

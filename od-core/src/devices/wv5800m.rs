@@ -13,6 +13,8 @@
 //! `docs/decisions.md`, "WV5800M".
 
 use crate::abort::Abort;
+use crate::context::{BusEvent, Context as Core, ResetKind};
+use crate::device::{CanopenDevice, CanopenStatus, Device, Link};
 use crate::devices::comm::{self, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
 use crate::encoder::linear::{CanDiagnosis, EMCY_AREA_1, EMCY_AREA_2, EMCY_BUS_OFF, EMCY_PASSIVE, EMCY_POSITION};
 use crate::encoder::rotary::{
@@ -21,13 +23,10 @@ use crate::encoder::rotary::{
 };
 use crate::encoder::{
     alarms, operating_status, warnings, Condition, EmcyConditions, Encoder, SensorFault, SpeedEstimator, WorkAreas,
+    CYCLE_TIMER_LINK,
 };
-use crate::guarding;
 use crate::led::{LedInputs, Leds, WARNING_LIMIT};
-use crate::lss::LssState;
-use crate::node::{BusEvent, Core, Device, ResetKind};
-use crate::od::{Access::*, CoreHook, DataType::*, Entry, Group, Hook, Od};
-use crate::pdo;
+use crate::od::{Access::*, DataType::*, Entry, Group, Hook, Od};
 use crate::time::Instant;
 
 /// Device-specific write hooks of the WV5800M (`Hook::Device(n)`).
@@ -163,7 +162,7 @@ const fn table(model: Model, turns: Turns) -> [Entry; ENTRIES] {
                 .range(-r, r - 1)
                 .group(MANUF)
                 .hook(dev(hooks::OFFSET)),
-            Entry::var(0x2002, "Calibrate encoder value", Unsigned8, Wo, 0).range(1, 1).hook(dev(hooks::CALIBRATE)),
+            Entry::var(0x2002, "Calibrate encoder value", Unsigned8, Wo, 0).range(0, 1).hook(dev(hooks::CALIBRATE)),
             Entry::var(0x2003, "Limit speed low", Integer16, Rw, 0).group(MANUF).hook(dev(hooks::LIMIT_SPEED)),
             Entry::var(0x2004, "Limit speed high", Integer16, Rw, 0).group(MANUF).hook(dev(hooks::LIMIT_SPEED)),
             Entry::var(0x5000, "Diagnosis CAN bus error", Unsigned32, Ro, 0),
@@ -171,6 +170,7 @@ const fn table(model: Model, turns: Turns) -> [Entry; ENTRIES] {
         comm::node_id_and_bitrate(&NODE).as_slice(),
         &[
             Entry::var(0x6000, "Operating parameters", Unsigned16, Rw, SCALING_BIT as u32)
+                .range(SCALING_BIT as i64, (SCALING_BIT | DIRECTION_BIT) as i64)
                 .group(APP)
                 .hook(dev(hooks::OPERATING_PARAMETERS)),
             Entry::var(0x6001, "Measuring steps per revolution", Unsigned32, Rw, PHYSICAL_STEPS)
@@ -178,7 +178,7 @@ const fn table(model: Model, turns: Turns) -> [Entry; ENTRIES] {
                 .group(APP)
                 .hook(dev(hooks::APU)),
             Entry::var(0x6002, "Total measuring range in measuring steps", Unsigned32, Rw, r as u32)
-                .range(1, max_pos + 1)
+                .range(n, max_pos + 1)
                 .group(APP)
                 .hook(dev(hooks::TOTAL_RANGE)),
             Entry::var(0x6003, "Preset value", Integer32, Rw, 0)
@@ -302,6 +302,8 @@ pub struct Wv5800m {
     warning: bool,
     can: CanDiagnosis,
     started: bool,
+    /// The node's status, for the LEDs.
+    status: CanopenStatus,
 }
 
 impl Wv5800m {
@@ -326,6 +328,7 @@ impl Wv5800m {
             warning: false,
             can: CanDiagnosis::default(),
             started: false,
+            status: CanopenStatus::default(),
         }
     }
 
@@ -344,14 +347,16 @@ impl Wv5800m {
         self.over_speed
     }
 
-    /// What the three LEDs show now ([`Leds::lit`] gives the blink phase at an instant).
-    pub fn leds(&self, core: &Core) -> Leds {
+    /// What the three LEDs show now ([`Leds::lit`] gives the blink phase at an instant): the
+    /// node's status as it last told the device ([`CanopenDevice::on_status`]) and the
+    /// device's own conditions.
+    pub fn leds(&self) -> Leds {
         Leds::from_inputs(&LedInputs {
-            nmt: core.nmt,
-            lss_configuration: core.lss.enabled() && core.lss.state() == LssState::Configuration,
+            nmt: self.status.nmt,
+            lss_configuration: self.status.lss_configuration,
             bus_off: self.bus_off,
             warning_limit: self.warning || self.passive,
-            guard_event: guarding::life_guard_event(core),
+            guard_event: self.status.life_guard_event,
             over_speed: self.over_speed,
         })
     }
@@ -457,6 +462,10 @@ impl Device for Wv5800m {
         self.table
     }
 
+    fn link(&self, e: &Entry) -> Option<Link> {
+        (e.hook == Hook::Device(hooks::CYCLE_TIMER)).then_some(CYCLE_TIMER_LINK)
+    }
+
     fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
         self.ensure_started(core);
         let hook = match core.od.entry(pos).hook {
@@ -494,14 +503,16 @@ impl Device for Wv5800m {
                 }
             }
             hooks::OFFSET | hooks::LIMIT_SPEED => {}
-            hooks::CALIBRATE => {
+            // 1 calibrates; 0, the printed default, does nothing (D-WV-4).
+            hooks::CALIBRATE if value == 1 => {
                 let raw = self.raw.ok_or(Abort::NO_DATA)?;
                 core.od.set_value(0x6509, 0, before.calibrated_at(raw));
             }
+            hooks::CALIBRATE => {}
+            // The access path has applied the TPDO1 event-timer rule (`link`); the two entries
+            // hold one value.
             hooks::CYCLE_TIMER => {
-                let timer = core.od.pos(0x1800, 5).ok_or(Abort::GENERAL)?;
-                pdo::on_write(core, CoreHook::PdoEventTimer, timer, value, now)?;
-                core.od.set(timer, value);
+                core.od.set_value(0x1800, 5, value);
                 core.od.set_value(0x6200, 0, value);
             }
             _ => return Ok(()),
@@ -546,6 +557,12 @@ impl Device for Wv5800m {
             }
         }
         self.report(core, now);
+    }
+}
+
+impl CanopenDevice for Wv5800m {
+    fn on_status(&mut self, status: CanopenStatus) {
+        self.status = status;
     }
 }
 

@@ -1,7 +1,7 @@
 //! The AP10T as a CANopen device: the [`Panel`] wired to its dictionary.
 //!
 //! - RPDO1/RPDO2 write set point 1/2 (5F16h) and the control word (5F0Ch) into the dictionary
-//!   (OPERATIONAL only, the PDO service's rule); [`Device::on_rpdo`] hands the eight bytes to
+//!   (OPERATIONAL only, the PDO service's rule); [`CanopenDevice::on_rpdo`] hands the eight bytes to
 //!   the panel and refreshes the dictionary's views of it: the status word 5F19h and the set
 //!   points the TPDOs carry (5F1Dh).
 //! - TPDO1 (event timer = 6200h) and TPDO2 (SYNC) are the PDO service's, from 5F1Dh and 5F19h.
@@ -19,13 +19,13 @@
 
 use crate::abort::Abort;
 use crate::bitrate::Bitrate;
+use crate::context::Written;
 use crate::encoder::linear::{CanDiagnosis, EMCY_BUS_OFF, EMCY_PASSIVE};
 use crate::encoder::EmcyConditions;
 use crate::nmt::NmtState;
-use crate::node::{BusEvent, Core, Device, DeviceRequests, ResetKind};
-use crate::od::{Entry, Group, GroupMask, Hook};
-use crate::pdo;
-use crate::sdo::Written;
+use crate::node::{BusEvent, CanopenDevice, Core, Device, DeviceRequests, Link, ResetKind};
+use crate::od::{CoreHook, Entry, Group, GroupMask, Hook};
+use crate::pdo::{RtrAnswer, RtrReply};
 use crate::time::Instant;
 
 use super::keys::Key;
@@ -232,7 +232,7 @@ impl Ap10t {
                 // Manual 4.6.2: the SDO reply (on the old identifier), the node-ID stored,
                 // the initialisation again, the boot-up with the new node-ID.
                 core.od.set_value(0x5F0A, 1, id as u32);
-                let _ = crate::storage::request(core, GroupMask::NODE_ID);
+                let _ = core.request_store(GroupMask::NODE_ID);
                 self.requests.sdo = Some(Ok(()));
                 self.requests.reset = Some(ResetKind::Communication);
             }
@@ -252,7 +252,7 @@ impl Ap10t {
     /// alone, `mask`); adopted at the next initialisation (D-AP-16).
     fn keep(&mut self, core: &mut Core, sub: u8, value: u8, mask: GroupMask) {
         core.od.set_value(0x5F0A, sub, value as u32);
-        let _ = crate::storage::request(core, mask);
+        let _ = core.request_store(mask);
     }
 
     /// (Re)arms the external heartbeat (5F09h) at `now`: it runs in OPERATIONAL when 5F09h.01
@@ -301,17 +301,13 @@ impl Device for Ap10t {
         BITRATE_CODES
     }
 
-    fn has_lss(&self) -> bool {
-        false
-    }
-
-    fn sdo_expedited_only(&self) -> bool {
-        true
-    }
-
-    /// The rates of 5F0Ah.03, slowest first (AP10T A31, D-AP-20).
-    fn auto_bitrates(&self) -> &'static [Bitrate] {
-        &AUTO_BITRATES
+    /// 6200h and 1800h.05 are one value: a write to either follows TPDO1's event-timer rule.
+    fn link(&self, e: &Entry) -> Option<Link> {
+        (e.hook == Hook::Device(hooks::CYCLE_TIMER)).then_some(Link {
+            index: 0x1800,
+            sub: 5,
+            hook: CoreHook::PdoEventTimer,
+        })
     }
 
     /// 1011h sub 2 restores the bus parameters of Table 4 (5F0Ah.01/.03, 5F09h among them) and
@@ -344,8 +340,9 @@ impl Device for Ap10t {
         let e = core.od.entry(pos);
         let Hook::Device(hook) = e.hook else { return Ok(Written::Done) };
         match hook {
+            // The access path has applied the event-timer rule (`link`).
             hooks::CYCLE_TIMER => {
-                pdo::set_event_timer(core, 0, value as u16, now)?;
+                core.od.set_value(0x1800, 5, value);
                 core.od.set_value(0x6200, 0, value);
             }
             hooks::PANEL => {
@@ -374,47 +371,12 @@ impl Device for Ap10t {
         Ok(Written::Done)
     }
 
-    fn on_rpdo(&mut self, core: &mut Core, n: u8, now: Instant) {
-        self.ensure_started(core, now);
-        let which = if n == 0 { Which::Sp1 } else { Which::Sp2 };
-        self.panel.receive(which, &Ap10t::rpdo_data(core, which));
-        self.refresh(core);
-        self.heartbeat_trigger(core, false, now);
-    }
-
-    fn on_rpdo_rtr(&mut self, core: &mut Core, n: u8, now: Instant) {
-        self.ensure_started(core, now);
-        self.remote_answer(core, n, |core| pdo::reply(core, n, n));
-    }
-
-    fn on_tpdo_rtr(&mut self, core: &mut Core, n: u8, now: Instant) {
-        self.ensure_started(core, now);
-        self.remote_answer(core, n, |core| pdo::answer_rtr(core, n));
-    }
-
-    fn on_sync(&mut self, core: &mut Core, now: Instant) {
-        self.ensure_started(core, now);
-        self.heartbeat_trigger(core, true, now);
-    }
-
     fn take_requests(&mut self) -> DeviceRequests {
         core::mem::take(&mut self.requests)
     }
 
     fn has_requests(&self) -> bool {
         self.requests != DeviceRequests::default()
-    }
-
-    fn on_nmt(&mut self, core: &mut Core, now: Instant) {
-        self.ensure_started(core, now);
-        // The external heartbeat starts on entering OPERATIONAL and stops on leaving it.
-        let was = self.operational;
-        self.operational = core.nmt == NmtState::Operational;
-        if !self.operational {
-            self.heartbeat_due = None;
-        } else if !was {
-            self.arm_heartbeat(core, now);
-        }
     }
 
     fn on_reset(&mut self, core: &mut Core, kind: ResetKind, now: Instant) {
@@ -424,7 +386,7 @@ impl Device for Ap10t {
         self.panel.end_auto_id();
         self.start(core);
         if core::mem::take(&mut self.store_after_reset) {
-            let _ = crate::storage::request(core, GroupMask::ALL);
+            let _ = core.request_store(GroupMask::ALL);
         }
         self.report(core, now);
     }
@@ -463,6 +425,56 @@ impl Device for Ap10t {
             }
         }
         self.report(core, now);
+    }
+}
+
+impl CanopenDevice for Ap10t {
+    fn has_lss(&self) -> bool {
+        false
+    }
+
+    /// The rates of 5F0Ah.03, slowest first (AP10T A31, D-AP-20).
+    fn auto_bitrates(&self) -> &'static [Bitrate] {
+        &AUTO_BITRATES
+    }
+
+    fn sdo_expedited_only(&self) -> bool {
+        true
+    }
+
+    fn on_rpdo(&mut self, core: &mut Core, n: u8, now: Instant) {
+        self.ensure_started(core, now);
+        let which = if n == 0 { Which::Sp1 } else { Which::Sp2 };
+        self.panel.receive(which, &Ap10t::rpdo_data(core, which));
+        self.refresh(core);
+        self.heartbeat_trigger(core, false, now);
+    }
+
+    fn on_rpdo_rtr(&mut self, core: &mut Core, n: u8, reply: &RtrReply, now: Instant) {
+        self.ensure_started(core, now);
+        self.remote_answer(core, n, |core| reply.send(core, n));
+    }
+
+    fn on_tpdo_rtr(&mut self, core: &mut Core, n: u8, answer: &RtrAnswer, now: Instant) {
+        self.ensure_started(core, now);
+        self.remote_answer(core, n, |core| answer.send(core));
+    }
+
+    fn on_sync(&mut self, core: &mut Core, now: Instant) {
+        self.ensure_started(core, now);
+        self.heartbeat_trigger(core, true, now);
+    }
+
+    fn on_nmt(&mut self, core: &mut Core, nmt: NmtState, now: Instant) {
+        self.ensure_started(core, now);
+        // The external heartbeat starts on entering OPERATIONAL and stops on leaving it.
+        let was = self.operational;
+        self.operational = nmt == NmtState::Operational;
+        if !self.operational {
+            self.heartbeat_due = None;
+        } else if !was {
+            self.arm_heartbeat(core, now);
+        }
     }
 }
 
