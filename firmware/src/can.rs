@@ -128,11 +128,13 @@ impl Bus {
         Bus { can, tx, rx: rx_half.buffered(rx), queue: TxQueue::default(), errors: ErrorTracker::default() }
     }
 
-    /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset). The frames the
-    /// node queued before the switch belong to the old rate: they go out first, as long as the
-    /// bus takes them within [`FLUSH_TIMEOUT`]; what is left then is dropped. The controller
-    /// re-joins the bus at the new rate after 11 recessive bits.
-    pub async fn set_bitrate(&mut self, rate: Bitrate) {
+    /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset, a candidate of
+    /// the automatic bit-rate detection). The frames the node queued before the switch belong to
+    /// the old rate: they go out first, as long as the bus takes them within [`FLUSH_TIMEOUT`];
+    /// what is left then is dropped. The controller re-joins the bus at the new rate after 11
+    /// recessive bits; `silent`: in silent mode (it sends nothing, not even an ACK or an error
+    /// frame, while the node detects the rate, `Node::listen_only`).
+    pub async fn set_bitrate(&mut self, rate: Bitrate, silent: bool) {
         let _ = with_deadline(crate::wake_at(Instant::now() + FLUSH_TIMEOUT), async {
             loop {
                 self.pump();
@@ -148,8 +150,16 @@ impl Bus {
             self.tx.abort(mb);
         }
         self.queue.clear();
-        self.can.modify_config().set_bit_timing(bit_timing(rate));
+        self.can.modify_config().set_bit_timing(bit_timing(rate)).set_silent(silent);
         self.can.enable().await;
+    }
+
+    /// Opens the acceptance filters to every frame (while the node detects the rate: any frame
+    /// received without error proves it).
+    pub fn accept_all(&mut self) {
+        let mut filters = self.can.modify_filters();
+        filters.clear();
+        filters.enable_bank(0, Fifo::Fifo0, BankConfig::Mask32(Mask32::accept_all()));
     }
 
     /// Programs the acceptance filters to pass exactly `ids` (all banks on FIFO 0, so frames

@@ -18,7 +18,7 @@ use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_time::{Duration, Timer};
 use od_core::encoder::program_serial;
 use od_core::node::{CanopenDevice, Device, Node, Output};
-use od_core::od::Entry;
+use od_core::od::{Entry, Group};
 use od_core::time::earliest;
 use od_core::{DeviceStation, Instant};
 use static_cell::StaticCell;
@@ -28,13 +28,17 @@ use crate::params::{self, Params};
 use crate::{now, wake_at};
 
 /// Powers the node on from what the parameter pages hold. A board whose pages hold no serial
-/// number (factory data, 1018h sub 4) gets one derived from the MCU's unique ID, in RAM only:
+/// number (factory data, 1018h sub 4; not the AP10T, whose 1018h sub 4 is a constant) gets one
+/// derived from the MCU's unique ID, in RAM only:
 /// the production line writes the real one, and the first save keeps whichever the node has.
 pub fn boot<D: CanopenDevice>(device: D, params: &mut Params, uid: &[u8; 12]) -> Node<D> {
     let loaded = params.load();
     let has_serial = loaded.image().is_some_and(|image| image.get(0x1018, 4).is_some());
     let mut node = Node::boot(device, &loaded);
-    if !has_serial {
+    // Only where the serial number is factory data: the AP10T's is a constant FFFFFFFFh.
+    let od = &node.core().od;
+    let factory = od.pos(0x1018, 4).is_some_and(|p| od.entry(p).group == Group::Factory);
+    if !has_serial && factory {
         let (_, core) = node.split();
         program_serial(&mut core.od, serial_from_uid(uid));
     }
@@ -68,7 +72,7 @@ async fn serve<N: DeviceStation>(
             }
             Output::SetBitrate(rate) => {
                 defmt::info!("bit rate {=u32} kbit/s", rate.kbit());
-                bus.set_bitrate(rate).await;
+                bus.set_bitrate(rate, node.listen_only()).await;
             }
         }
     }
@@ -115,6 +119,10 @@ where
     // enables it, keeps its TX pin recessive meanwhile.
     standby.set_low();
     let mut bus = Bus::start(can, RX.init(RxBuf::new()), node.context().bitrate).await;
+    // Automatic bit-rate detection: silent from the start (D-AP-20).
+    if node.listen_only() {
+        bus.set_bitrate(node.context().bitrate, true).await;
+    }
     watchdog.unleash();
 
     let period = Duration::from_micros(io.period_us(node.device()) as u64);
@@ -143,9 +151,13 @@ where
             lost_outputs = node.context().out.dropped();
             defmt::error!("node outbox full: {=u32} outputs lost", lost_outputs);
         }
-        let generation = node.rx_ids_generation();
+        let generation = (node.rx_ids_generation(), node.listen_only());
         if filters != Some(generation) {
-            bus.set_filters(&node.rx_ids());
+            if node.listen_only() {
+                bus.accept_all();
+            } else {
+                bus.set_filters(&node.rx_ids());
+            }
             filters = Some(generation);
         }
         bus.pump();

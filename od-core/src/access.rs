@@ -100,8 +100,7 @@ pub fn write(
                 core_write(ctx, services, link.hook, target, value, now)?;
                 ctx.od.set(target, value);
             }
-            device.on_write(ctx, pos, value, now)?;
-            Written::Done
+            device.on_write_deferred(ctx, pos, value, now)?
         }
     };
     if !matches!(hook, Hook::Core(CoreHook::Store | CoreHook::Restore)) {

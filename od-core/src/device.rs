@@ -4,10 +4,10 @@
 
 use crate::abort::Abort;
 use crate::bitrate::Bitrate;
-use crate::context::{BusEvent, Context, ResetKind};
+use crate::context::{BusEvent, Context, ResetKind, Written};
 use crate::nmt::NmtState;
 use crate::od::{CoreHook, Entry, GroupMask};
-use crate::pdo::RtrReply;
+use crate::pdo::{RtrAnswer, RtrReply};
 use crate::time::Instant;
 
 /// A cross-object link: a write to one of the device's entries is also a write of the same
@@ -23,6 +23,20 @@ pub struct Link {
     pub sub: u8,
     /// The rule the linked entry's value follows.
     pub hook: CoreHook,
+}
+
+/// What a device asks of its node beyond frames and stores, taken by the node after the
+/// device ran ([`Device::take_requests`]): the AP10T's Auto-ID answers its deferred SDO write
+/// after a key press and then runs the initialisation again with the new node-ID; its external
+/// heartbeat sends the node to PRE-OPERATIONAL.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
+pub struct DeviceRequests {
+    /// Answer the SDO request the device deferred ([`Device::on_write_deferred`]).
+    pub sdo: Option<Result<(), Abort>>,
+    /// Reset this way (after the SDO answer).
+    pub reset: Option<ResetKind>,
+    /// Leave OPERATIONAL for PRE-OPERATIONAL, as an NMT 80h would.
+    pub pre_operational: bool,
 }
 
 /// The transport-neutral part of a device.
@@ -55,6 +69,23 @@ pub trait Device {
     fn on_write(&mut self, ctx: &mut Context, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
         let _ = (ctx, pos, value, now);
         Ok(())
+    }
+
+    /// [`Device::on_write`] for a write whose answer may wait: `Written::Deferred` holds the
+    /// SDO answer until the device asks for it ([`DeviceRequests::sdo`]). By default the write is
+    /// answered at once.
+    fn on_write_deferred(&mut self, ctx: &mut Context, pos: usize, value: u32, now: Instant) -> Result<Written, Abort> {
+        self.on_write(ctx, pos, value, now).map(|()| Written::Done)
+    }
+
+    /// What the device asks of its node now (taken: a second call returns none).
+    fn take_requests(&mut self) -> DeviceRequests {
+        DeviceRequests::default()
+    }
+
+    /// Whether the device has requests waiting (the node then polls at once).
+    fn has_requests(&self) -> bool {
+        false
     }
 
     /// Called after a reset, with the dictionary already re-initialised.
@@ -109,6 +140,32 @@ pub trait CanopenDevice: Device {
     /// `reply`.
     fn on_rpdo_rtr(&mut self, ctx: &mut Context, n: u8, reply: &RtrReply, now: Instant) {
         let _ = (ctx, n, reply, now);
+    }
+
+    /// A remote frame asked for transmit PDO `n` (0-based) in OPERATIONAL: the answer is its
+    /// data (`answer`), which a device may extend (the AP10T's data identifier, status word
+    /// bit 9, is in remote answers only).
+    fn on_tpdo_rtr(&mut self, ctx: &mut Context, n: u8, answer: &RtrAnswer, now: Instant) {
+        let _ = (n, now);
+        answer.send(ctx);
+    }
+
+    /// The NMT state changed by an NMT command or a device request (`nmt` the new state).
+    fn on_nmt(&mut self, ctx: &mut Context, nmt: NmtState, now: Instant) {
+        let _ = (ctx, nmt, now);
+    }
+
+    /// The rates an automatic bit-rate detection tries, in order, when the pending bit-rate
+    /// code names no rate at power-on (the AP10T's 5F0Ah.03 = 0, "Auto baud"); empty (the
+    /// default): no detection, the node then runs at 500 kbit/s.
+    fn auto_bitrates(&self) -> &'static [Bitrate] {
+        &[]
+    }
+
+    /// Does the SDO server serve expedited transfers only (the AP10T: "exclusively via
+    /// expedited Request/Response")? False by default: segmented too.
+    fn sdo_expedited_only(&self) -> bool {
+        false
     }
 
     /// A SYNC was received in PRE-OPERATIONAL or OPERATIONAL (after the synchronous TPDOs

@@ -8,6 +8,7 @@
 
 pub mod abort;
 pub mod access;
+pub mod autobaud;
 pub mod bitrate;
 pub mod context;
 pub mod device;

@@ -10,6 +10,7 @@
 
 use crate::abort::Abort;
 use crate::access::{self, Access, Services};
+use crate::autobaud::Scan;
 use crate::bitrate::Bitrate;
 use crate::context::Written;
 use crate::emcy;
@@ -19,7 +20,7 @@ use crate::heartbeat::Heartbeat;
 use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
 use crate::od::{CoreHook, Default as OdDefault, Group, Hook, Od};
-use crate::pdo::{self, PdoEvent, Pdos, RtrReply};
+use crate::pdo::{self, PdoEvent, Pdos, RtrAnswer, RtrReply};
 use crate::sdo::SdoServer;
 use crate::shell::{DeviceStation, Station};
 use crate::storage::{self, Image, Loaded, Record};
@@ -29,7 +30,7 @@ use crate::wire::nmt::{self as nmt_wire, ErrorControl};
 /// The context under its former name.
 pub use crate::context::Context as Core;
 pub use crate::context::{BusEvent, CanError, Context, Outbox, Output, ResetKind, OUTBOX_DEPTH};
-pub use crate::device::{CanopenDevice, CanopenStatus, Device, Link};
+pub use crate::device::{CanopenDevice, CanopenStatus, Device, DeviceRequests, Link};
 pub use crate::shell::{RxIds, MAX_RX_IDS};
 
 /// A CANopen node running device `D`.
@@ -42,6 +43,8 @@ pub struct Node<D: CanopenDevice> {
     guarding: Guarding,
     pdo: Pdos,
     lss: Lss,
+    /// The automatic bit-rate detection under way (before the boot-up).
+    scan: Option<Scan>,
 }
 
 /// The CANopen services whose rules the dictionary access path applies to their entries,
@@ -114,6 +117,9 @@ impl<D: CanopenDevice> Node<D> {
         let mut node = Node::power_on(device, &Loaded::Image(image), node_id);
         node.ctx.node_id = node_id;
         node.ctx.bitrate = bitrate;
+        if code.is_some() {
+            node.scan = None;
+        }
         node
     }
 
@@ -129,7 +135,14 @@ impl<D: CanopenDevice> Node<D> {
 
     fn power_on(device: D, loaded: &Loaded, fallback_node_id: u8) -> Node<D> {
         let (od, storage, node_id) = storage::power_on(device.table(), loaded, fallback_node_id);
-        let bitrate = pending_bitrate(&device, &od).unwrap_or(Bitrate::K500);
+        let pending = pending_bitrate(&device, &od);
+        let scan = match pending {
+            None if storage::pending(&od, CoreHook::PendingBitrate).is_some() => Scan::new(device.auto_bitrates()),
+            _ => None,
+        };
+        let bitrate = pending.or(scan.map(|s| s.rate())).unwrap_or(Bitrate::K500);
+        let mut sdo = SdoServer::new();
+        sdo.set_expedited_only(device.sdo_expedited_only());
         let lss = Lss::new(&od, device.has_lss(), device.bitrate_codes());
         let mut ctx = Context::new(od, storage, node_id, bitrate);
         ctx.errors.announce_with(emcy::frame);
@@ -138,11 +151,12 @@ impl<D: CanopenDevice> Node<D> {
             ctx,
             device,
             nmt: NmtState::Initialising,
-            sdo: SdoServer::new(),
+            sdo,
             heartbeat: Heartbeat::default(),
             guarding: Guarding::default(),
             pdo: Pdos::default(),
             lss,
+            scan,
         };
         node.notify();
         node
@@ -222,8 +236,27 @@ impl<D: CanopenDevice> Node<D> {
         self.ctx.out.pop()
     }
 
+    /// Is the node detecting its bit rate (before its boot-up)? The shell then runs its CAN
+    /// controller silent (it sends nothing, not even an ACK or an error frame), at the rate
+    /// the last `Output::SetBitrate` named, with its acceptance filters open, and passes every
+    /// frame received without error: the first one ends the detection (D-AP-20).
+    pub fn listen_only(&self) -> bool {
+        self.scan.is_some()
+    }
+
     /// Handles one received frame.
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        // A frame received without error during the bit-rate detection proves the rate: the
+        // node takes it (as its pending code, which a 1010h save keeps) and boots up.
+        if let Some(scan) = self.scan.take() {
+            let rate = scan.rate();
+            self.ctx.bitrate = rate;
+            let code = self.device.bitrate_codes().iter().find(|(_, b)| *b == rate).map(|(c, _)| *c);
+            if let (Some(pos), Some(code)) = (self.ctx.od.find_hook(CoreHook::PendingBitrate), code) {
+                self.ctx.od.set(pos, code);
+            }
+            return;
+        }
         // LSS works in every NMT state and without a node-ID (CiA 305).
         if frame.id == CanId::Std(lss::RX_ID) && self.lss.enabled() {
             let event = self.lss.on_frame(&mut self.ctx, frame, now);
@@ -246,7 +279,7 @@ impl<D: CanopenDevice> Node<D> {
             }
             CanId::Std(x) if x == 0x600 + id => {
                 if !frame.rtr && self.nmt.sdo_allowed() {
-                    let Node { ctx, device, sdo, nmt, heartbeat, guarding, pdo, lss } = self;
+                    let Node { ctx, device, sdo, nmt, heartbeat, guarding, pdo, lss, .. } = self;
                     let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
                     let mut access = Access { ctx, device, services: &mut services };
                     let response = sdo.on_request(frame.payload(), now, &mut access);
@@ -259,7 +292,11 @@ impl<D: CanopenDevice> Node<D> {
                 }
             }
             _ => match self.pdo.on_frame(&mut self.ctx, self.nmt, frame, now) {
-                PdoEvent::None | PdoEvent::Rtr(_) => {}
+                PdoEvent::None => {}
+                PdoEvent::Rtr(n) => {
+                    let answer = RtrAnswer::new(&self.pdo, n);
+                    self.device.on_tpdo_rtr(&mut self.ctx, n, &answer, now);
+                }
                 PdoEvent::Sync { rpdos } => {
                     for n in 0..pdo::MAX_RPDOS as u8 {
                         if rpdos & (1 << n) != 0 {
@@ -286,6 +323,16 @@ impl<D: CanopenDevice> Node<D> {
 
     /// Runs the timers due at `now`.
     pub fn poll(&mut self, now: Instant) {
+        if let Some(scan) = &mut self.scan {
+            let first = scan.next_deadline() == Instant::ZERO;
+            if let Some(rate) = scan.poll(now).or(first.then(|| scan.rate())) {
+                self.ctx.bitrate = rate;
+                self.ctx.out.push(Output::SetBitrate(rate));
+            }
+            // The device runs meanwhile (the AP10T's display test), off the bus.
+            self.device.poll(&mut self.ctx, now);
+            return;
+        }
         let event = self.lss.poll(&mut self.ctx, now);
         if event != LssEvent::None {
             self.on_lss(event, now);
@@ -306,10 +353,37 @@ impl<D: CanopenDevice> Node<D> {
         self.ctx.release_deferred();
         self.pdo.poll(&mut self.ctx, now);
         self.device.poll(&mut self.ctx, now);
+        if self.device.has_requests() {
+            self.device_requests(now);
+        }
+    }
+
+    /// Carries out what the device asked for: the deferred SDO answer first (on the identifier
+    /// in use when it was asked), then the state change or the reset.
+    #[cold]
+    #[inline(never)]
+    fn device_requests(&mut self, now: Instant) {
+        let req = self.device.take_requests();
+        if let Some(result) = req.sdo {
+            let response = self.sdo.complete_deferred(result);
+            self.send_sdo(response);
+        }
+        if req.pre_operational && self.nmt == NmtState::Operational {
+            self.on_nmt(NmtCommand::EnterPreOperational, now);
+        }
+        if let Some(kind) = req.reset {
+            self.reset(kind, now);
+        }
     }
 
     /// When [`Node::poll`] must next run; `None` when nothing is scheduled.
     pub fn next_deadline(&self) -> Option<Instant> {
+        if let Some(scan) = &self.scan {
+            return Some(scan.next_deadline());
+        }
+        if self.device.has_requests() {
+            return Some(Instant::ZERO);
+        }
         let mut next = self.lss.next_deadline();
         if self.lss.switching() {
             return next;
@@ -411,6 +485,7 @@ impl<D: CanopenDevice> Node<D> {
         }
         self.pdo.on_state(&self.ctx.od, self.nmt, now);
         self.notify();
+        self.device.on_nmt(&mut self.ctx, self.nmt, now);
     }
 
     #[cold]
@@ -527,6 +602,9 @@ impl<D: CanopenDevice> Station for Node<D> {
     }
     fn context(&self) -> &Context {
         &self.ctx
+    }
+    fn listen_only(&self) -> bool {
+        Node::listen_only(self)
     }
 }
 

@@ -66,6 +66,26 @@ impl<'a> RtrReply<'a> {
     }
 }
 
+/// The answer to a remote request on a TPDO, as the device gives it
+/// ([`crate::device::CanopenDevice::on_tpdo_rtr`]): [`RtrAnswer::send`] puts the TPDO's data
+/// on its identifier ([`Pdos::answer_rtr`]), at the moment the device calls it.
+pub struct RtrAnswer<'a> {
+    pdos: &'a Pdos,
+    tpdo: u8,
+}
+
+impl<'a> RtrAnswer<'a> {
+    /// The answer to a remote request on TPDO `tpdo` (0-based).
+    pub fn new(pdos: &'a Pdos, tpdo: u8) -> RtrAnswer<'a> {
+        RtrAnswer { pdos, tpdo }
+    }
+
+    /// Sends the TPDO's data (sampled at the last SYNC for type FCh, else current).
+    pub fn send(&self, ctx: &mut Context) {
+        self.pdos.answer_rtr(ctx, self.tpdo);
+    }
+}
+
 /// What a received frame was for the PDO layer.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum PdoEvent {
@@ -83,7 +103,9 @@ pub enum PdoEvent {
     /// device that answers (the AP10T returns its set points) does so in
     /// `CanopenDevice::on_rpdo_rtr` with an [`RtrReply`].
     RpdoRtr(u8),
-    /// A remote frame asked for TPDO `n` (0-based), which was sent.
+    /// A remote frame asked for TPDO `n` (0-based), which accepts it (OPERATIONAL, COB-ID
+    /// bit 30 = 0): the node answers through `CanopenDevice::on_tpdo_rtr`, by default with
+    /// [`Pdos::answer_rtr`] (the AP10T adds its data identifier to the answer).
     Rtr(u8),
 }
 
@@ -373,9 +395,6 @@ impl Pdos {
                     if !t.rtr || !t.map.ok {
                         return PdoEvent::None;
                     }
-                    let data = t.sample.unwrap_or_else(|| pack(&ctx.od, &t.map));
-                    let (id, len) = (t.id, t.map.len);
-                    ctx.out.send(Frame { id, rtr: false, len, data });
                     return PdoEvent::Rtr(n as u8);
                 }
             }
@@ -490,6 +509,21 @@ impl Pdos {
     /// reads its set points back this way). Nothing is sent for a PDO that does not exist, is
     /// invalid or outside OPERATIONAL.
     pub fn reply(&self, ctx: &mut Context, rpdo: u8, tpdo: u8) {
+        self.reply_inner(ctx, rpdo, tpdo)
+    }
+
+    /// Answers a remote request for TPDO `n` ([`PdoEvent::Rtr`]): the data sampled at the
+    /// last SYNC (type FCh) or else its current data, on its identifier.
+    pub fn answer_rtr(&self, ctx: &mut Context, n: u8) {
+        let Some(t) = self.tpdos().get(n as usize) else { return };
+        if !t.valid || !t.map.ok {
+            return;
+        }
+        let data = t.sample.unwrap_or_else(|| pack(&ctx.od, &t.map));
+        ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
+    }
+
+    fn reply_inner(&self, ctx: &mut Context, rpdo: u8, tpdo: u8) {
         let p = self;
         let (Some(r), Some(t)) = (p.rpdos().get(rpdo as usize), p.tpdos().get(tpdo as usize)) else { return };
         if !p.running || !r.valid || !t.map.ok {

@@ -63,6 +63,8 @@ pub struct SdoServer {
     pos: usize,
     deadline: Instant,
     deferred: Option<(u16, u8, ServerResponse)>,
+    /// Expedited transfers only (the AP10T, D-AP-21).
+    expedited_only: bool,
 }
 
 impl Default for SdoServer {
@@ -89,7 +91,15 @@ impl SdoServer {
             pos: 0,
             deadline: Instant::ZERO,
             deferred: None,
+            expedited_only: false,
         }
+    }
+
+    /// Serves expedited transfers only, as the AP10T's manual does ("exclusively via expedited
+    /// Request/Response", D-AP-21): a segmented or unsized download request aborts with
+    /// 05040001h, and a value longer than four bytes is uploaded expedited with its first four.
+    pub fn set_expedited_only(&mut self, on: bool) {
+        self.expedited_only = on;
     }
 
     /// Drops any transfer in progress (NMT reset, STOPPED).
@@ -107,17 +117,35 @@ impl SdoServer {
     /// that are not 8 bytes long are not SDO requests (CiA 301) and are ignored (D-SDO-2).
     #[inline]
     pub fn on_request(&mut self, req: &[u8], now: Instant, dict: &mut impl ObjectAccess) -> Option<[u8; 8]> {
-        let req = ClientRequest::parse(req)?;
-        self.serve(req, now, dict).map(|r| r.emit())
+        let parsed = ClientRequest::parse(req)?;
+        // An initiate download with e = 1 and s = 1 (23h, 27h, 2Bh, 2Fh).
+        let sized_expedited = req[0] & 0x03 == 0x03;
+        self.serve_with(parsed, sized_expedited, now, dict).map(|r| r.emit())
     }
 
     /// Serves one parsed request; returns the response, if any.
     #[inline]
     pub fn serve(&mut self, req: ClientRequest, now: Instant, dict: &mut impl ObjectAccess) -> Option<ServerResponse> {
+        self.serve_with(req, true, now, dict)
+    }
+
+    /// [`SdoServer::serve`] knowing whether an initiate download indicated its size and was
+    /// expedited (what an expedited-only server requires).
+    #[inline]
+    fn serve_with(
+        &mut self,
+        req: ClientRequest,
+        sized_expedited: bool,
+        now: Instant,
+        dict: &mut impl ObjectAccess,
+    ) -> Option<ServerResponse> {
         match req {
             ClientRequest::InitiateUpload { index, sub } => {
                 self.state = State::Idle;
                 self.upload(index, sub, now, dict)
+            }
+            ClientRequest::InitiateDownload { index, sub, .. } if self.expedited_only && !sized_expedited => {
+                self.fail(index, sub, Abort::INVALID_COMMAND)
             }
             ClientRequest::InitiateDownload { index, sub, kind } => {
                 self.state = State::Idle;
@@ -152,6 +180,7 @@ impl SdoServer {
         }
         let mut value = [0u8; MAX_VALUE];
         let n = match dict.read(index, sub, &mut value) {
+            Ok(n) if self.expedited_only => n.min(4),
             Ok(n) => n,
             Err(abort) => return self.fail(index, sub, abort),
         };
@@ -343,6 +372,35 @@ mod tests {
 
     fn at(ms: u64) -> Instant {
         Instant::from_millis(ms)
+    }
+
+    #[test]
+    fn expedited_only_aborts_segmented_and_unsized_requests_and_cuts_long_values() {
+        let mut d = Fake { value: 7 };
+        let mut s = SdoServer::new();
+        s.set_expedited_only(true);
+        let t = Instant::ZERO;
+        // Initiate segmented download (21h, 20h) and unsized expedited (22h): 05040001h.
+        for cmd in [0x21, 0x20, 0x22] {
+            assert_eq!(
+                s.on_request(&[cmd, 0x00, 0x20, 0x00, 4, 0, 0, 0], t, &mut d),
+                Some([0x80, 0x00, 0x20, 0x00, 0x01, 0x00, 0x04, 0x05])
+            );
+        }
+        assert_eq!(d.value, 7);
+        // Sized expedited still writes.
+        assert_eq!(
+            s.on_request(&[0x23, 0x00, 0x20, 0x00, 9, 0, 0, 0], t, &mut d),
+            Some([0x60, 0x00, 0x20, 0, 0, 0, 0, 0])
+        );
+        assert_eq!(d.value, 9);
+        // The 10-byte string: its first four bytes, expedited.
+        assert_eq!(
+            s.on_request(&[0x40, 0x01, 0x20, 0x00, 0, 0, 0, 0], t, &mut d),
+            Some([0x43, 0x01, 0x20, 0x00, b'0', b'1', b'2', b'3'])
+        );
+        // No segment follows.
+        assert_eq!(s.on_request(&[0x60, 0, 0, 0, 0, 0, 0, 0], t, &mut d).map(|r| r[0]), Some(0x80));
     }
 
     #[test]

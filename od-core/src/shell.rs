@@ -46,6 +46,13 @@ pub trait Station {
 
     /// The shared state: what a store persists, the active bit rate.
     fn context(&self) -> &Context;
+
+    /// Is the node detecting its bit rate? The shell then runs the controller silent (no ACK,
+    /// no error frame) at the rate of the last `Output::SetBitrate`, with its filters open
+    /// (`Node::listen_only`). False by default.
+    fn listen_only(&self) -> bool {
+        false
+    }
 }
 
 /// A station with a device the shell also feeds directly (sensor samples, key presses).

@@ -1,6 +1,7 @@
 //! Host-side harness for the SIKO devices: a virtual CAN bus with a virtual clock on which
 //! scenario tests replay the manuals' examples, and (in `sim`) the real-time simulator.
 
+pub mod ap10t;
 pub mod bench;
 pub mod bus;
 pub mod eds;

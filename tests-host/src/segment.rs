@@ -34,6 +34,11 @@ pub trait Station: od_core::Station {
     fn panel(&self) -> Option<String> {
         None
     }
+    /// The station as `Any`, for a test or the simulator to reach a concrete station (an
+    /// AP10T's keys); `None` where the station does not offer it.
+    fn as_any_mut(&mut self) -> Option<&mut dyn Any> {
+        None
+    }
 }
 
 impl<D: CanopenDevice> Station for Node<D> {

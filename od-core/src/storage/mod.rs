@@ -81,7 +81,10 @@ fn is_log(e: &Entry) -> bool {
 
 /// Does a store of `mask` write the entry?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
-    (is_user(e) && mask.contains(e.group)) || (mask.0 & GroupMask::LSS.0 != 0 && is_pending(e))
+    (is_user(e) && mask.contains(e.group))
+        || (mask.0 & GroupMask::LSS.0 != 0 && is_pending(e))
+        || (mask.0 & GroupMask::NODE_ID.0 != 0 && e.hook == Hook::Core(CoreHook::PendingNodeId))
+        || (mask.0 & GroupMask::BITRATE.0 != 0 && e.hook == Hook::Core(CoreHook::PendingBitrate))
 }
 
 /// The user-stored entries as (slot in [`Storage`], position in the table, entry).

@@ -356,9 +356,26 @@ fn plan(spec: &DeviceSpec, position: usize) -> Result<Vec<Channel>, String> {
                 boot: encoder_boot(wv5800m::Wv5800m::new(variant), motion, max, Some(wv5800m_leds), uid(0)),
             }])
         }
-        Kind::Ap10t => unavailable("the AP10T"),
+        Kind::Ap10t => ap10t(spec),
         Kind::Wv58mr => unavailable("the WV58MR (J1939)"),
     }
+}
+
+/// The AP10T: one display whose bit rate is detected on the bus unless a stored one says
+/// otherwise (factory 5F0Ah.03 = Auto baud); `node=` is its node-ID (factory 7Dh).
+fn ap10t(spec: &DeviceSpec) -> Result<Vec<Channel>, String> {
+    if spec.redundant || spec.variant.is_some() || spec.motion.is_some() {
+        return Err("--device ap10t: no redundant=, variant= or motion= (a display has no sensor)".into());
+    }
+    if spec.serial.is_some() {
+        return Err("--device ap10t: its serial number is a constant (FFFFFFFFh)".into());
+    }
+    Ok(vec![Channel {
+        label: "AP10T".into(),
+        suffix: "",
+        table: od_core::devices::ap10t::table::TABLE,
+        boot: Box::new(|loaded: &Loaded| Box::new(crate::ap10t::Display::boot(loaded))),
+    }])
 }
 
 /// `variant=` of a WV5800M: model and revolutions, `wv4096` (default), `wv256`, `wv16`, `wv1`,
