@@ -14,9 +14,10 @@ use boards::Io;
 use embassy_futures::select::{select3, Either3};
 use embassy_time::{Duration, Timer};
 use od_core::encoder::program_serial;
-use od_core::node::{Device, Node, Output};
+use od_core::node::{CanopenDevice, Device, Node, Output};
+use od_core::od::Entry;
 use od_core::time::earliest;
-use od_core::Instant;
+use od_core::{DeviceStation, Instant};
 use static_cell::StaticCell;
 
 use crate::can::{Bus, RxBuf};
@@ -26,7 +27,7 @@ use crate::{now, wake_at};
 /// Powers the node on from what the parameter pages hold. A board whose pages hold no serial
 /// number (factory data, 1018h sub 4) gets one derived from the MCU's unique ID, in RAM only:
 /// the production line writes the real one, and the first save keeps whichever the node has.
-pub fn boot<D: Device>(device: D, params: &mut Params, uid: &[u8; 12]) -> Node<D> {
+pub fn boot<D: CanopenDevice>(device: D, params: &mut Params, uid: &[u8; 12]) -> Node<D> {
     let loaded = params.load();
     let has_serial = loaded.image().is_some_and(|image| image.get(0x1018, 4).is_some());
     let mut node = Node::boot(device, &loaded);
@@ -36,8 +37,8 @@ pub fn boot<D: Device>(device: D, params: &mut Params, uid: &[u8; 12]) -> Node<D
     }
     defmt::info!(
         "boot: node-ID {=u8}, {=u32} kbit/s, parameters {}",
-        node.core().node_id,
-        node.core().bitrate.kbit(),
+        node.context().node_id,
+        node.context().bitrate.kbit(),
         if loaded.image().is_some() { "stored" } else { "defaults" }
     );
     node
@@ -51,20 +52,39 @@ async fn until(deadline: Option<Instant>) {
     }
 }
 
-/// Runs `device` on the board for ever: powers it on from the parameter pages in `mcu`'s flash,
-/// joins the bus at the stored bit rate, and loops.
-pub async fn run<D: Device, I: Io<D>>(device: D, mcu: Mcu, mut io: I) -> ! {
+/// Runs the CANopen `device` on the board for ever: powers it on from the parameter pages in
+/// `mcu`'s flash, joins the bus at the stored bit rate, and loops ([`drive`]).
+pub async fn run<D: CanopenDevice, I: Io<D>>(device: D, mcu: Mcu, io: I) -> ! {
+    let table = device.table();
+    drive(mcu, table, |params, uid| boot(device, params, uid), io).await
+}
+
+/// The main loop over any node, CANopen or J1939, through the core's shell interface
+/// ([`od_core::Station`], [`DeviceStation`]): `make` powers the node on from the parameter
+/// pages of the device whose dictionary is `table` (inside this future, so that the node is
+/// stored once).
+pub async fn drive<N, I>(
+    mcu: Mcu,
+    table: &'static [Entry],
+    make: impl FnOnce(&mut Params, &[u8; 12]) -> N,
+    mut io: I,
+) -> !
+where
+    N: DeviceStation,
+    N::Device: Device,
+    I: Io<N::Device>,
+{
     static RX: StaticCell<RxBuf> = StaticCell::new();
     let Mcu { can, mut standby, flash, mut watchdog, reset, uid } = mcu;
     if reset.is_fault() {
         defmt::warn!("reset by the watchdog: the main loop had stopped");
     }
-    let mut params = params::open(flash, device.table());
-    let mut node = boot(device, &mut params, &uid);
+    let mut params = params::open(flash, table);
+    let mut node = make(&mut params, &uid);
     // The transceiver leaves standby only now; the controller, in sleep until `Bus::start`
     // enables it, keeps its TX pin recessive meanwhile.
     standby.set_low();
-    let mut bus = Bus::start(can, RX.init(RxBuf::new()), node.core().bitrate).await;
+    let mut bus = Bus::start(can, RX.init(RxBuf::new()), node.context().bitrate).await;
     watchdog.unleash();
 
     let period = Duration::from_micros(io.period_us(node.device()) as u64);
@@ -88,7 +108,7 @@ pub async fn run<D: Device, I: Io<D>>(device: D, mcu: Mcu, mut io: I) -> ! {
                 Output::Frame(frame) => bus.send(frame),
                 Output::Store(groups) => {
                     watchdog.pet();
-                    let result = params.save(node.core(), groups);
+                    let result = params.save(node.context(), groups);
                     if result.is_err() {
                         defmt::error!("parameter save failed");
                     }

@@ -16,7 +16,7 @@
 use std::fmt::Write;
 
 use od_core::devices::wv5800m::{table_of, Model, Turns, Variant};
-use od_core::node::Device;
+use od_core::node::{CanopenDevice, Device};
 use od_core::od::{Access, CoreHook, DataType, Default, Entry, Hook, Kind};
 use od_core::pdo::{rpdo_type_allowed, tpdo_type_allowed};
 use od_core::Bitrate;

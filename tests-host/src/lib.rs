@@ -9,7 +9,7 @@ pub mod flash;
 pub mod segment;
 pub mod sim;
 
-use od_core::node::Device;
+use od_core::node::{CanopenDevice, Device};
 use od_core::od::Entry;
 
 /// A device with a dictionary and no behaviour of its own: what the communication-profile
@@ -22,3 +22,5 @@ impl Device for TableOnly {
         self.0
     }
 }
+
+impl CanopenDevice for TableOnly {}

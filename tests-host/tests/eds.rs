@@ -11,7 +11,7 @@ use od_core::devices::sgh10::{Sgh10, Variant as Sgh10Variant};
 use od_core::devices::sgh50::{Sgh50, Variant as Sgh50Variant};
 use od_core::devices::wv5800m::Wv5800m;
 use od_core::encoder::Encoder;
-use od_core::node::{Device, Output};
+use od_core::node::{CanopenDevice, Output};
 use od_core::od::{CoreHook, DataType, Default, Entry, Hook, Kind};
 use od_core::{Bitrate, Frame, Instant, Node};
 use tests_host::eds::{declared_limits, devices, generate, holes, table_json, EdsDevice, Part};
@@ -117,7 +117,7 @@ fn every_default_lies_within_its_limits() {
 
 /// What the device answers to an expedited SDO download of `value` to `e`, on a node just
 /// booted (PRE-OPERATIONAL, node-ID 1) with one valid sensor sample: `Ok` or the abort code.
-fn download<D: Device + Encoder>(device: D, raw: u32, e: &Entry, value: i64) -> Result<(), u32> {
+fn download<D: CanopenDevice + Encoder>(device: D, raw: u32, e: &Entry, value: i64) -> Result<(), u32> {
     let mut node = Node::new(device, 1, Bitrate::K500);
     let t = Instant::from_millis(1);
     node.poll(t);

@@ -13,6 +13,8 @@
 //! `docs/decisions.md`, "WV5800M".
 
 use crate::abort::Abort;
+use crate::context::{BusEvent, Context as Core, ResetKind};
+use crate::device::{CanopenDevice, CanopenStatus, Device, Link};
 use crate::devices::comm::{self, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
 use crate::encoder::linear::{CanDiagnosis, EMCY_AREA_1, EMCY_AREA_2, EMCY_BUS_OFF, EMCY_PASSIVE, EMCY_POSITION};
 use crate::encoder::rotary::{
@@ -21,13 +23,10 @@ use crate::encoder::rotary::{
 };
 use crate::encoder::{
     alarms, operating_status, warnings, Condition, EmcyConditions, Encoder, SensorFault, SpeedEstimator, WorkAreas,
+    CYCLE_TIMER_LINK,
 };
-use crate::guarding;
 use crate::led::{LedInputs, Leds, WARNING_LIMIT};
-use crate::lss::LssState;
-use crate::node::{BusEvent, Core, Device, ResetKind};
-use crate::od::{Access::*, CoreHook, DataType::*, Entry, Group, Hook, Od};
-use crate::pdo;
+use crate::od::{Access::*, DataType::*, Entry, Group, Hook, Od};
 use crate::time::Instant;
 
 /// Device-specific write hooks of the WV5800M (`Hook::Device(n)`).
@@ -303,6 +302,8 @@ pub struct Wv5800m {
     warning: bool,
     can: CanDiagnosis,
     started: bool,
+    /// The node's status, for the LEDs.
+    status: CanopenStatus,
 }
 
 impl Wv5800m {
@@ -327,6 +328,7 @@ impl Wv5800m {
             warning: false,
             can: CanDiagnosis::default(),
             started: false,
+            status: CanopenStatus::default(),
         }
     }
 
@@ -345,14 +347,16 @@ impl Wv5800m {
         self.over_speed
     }
 
-    /// What the three LEDs show now ([`Leds::lit`] gives the blink phase at an instant).
-    pub fn leds(&self, core: &Core) -> Leds {
+    /// What the three LEDs show now ([`Leds::lit`] gives the blink phase at an instant): the
+    /// node's status as it last told the device ([`CanopenDevice::on_status`]) and the
+    /// device's own conditions.
+    pub fn leds(&self) -> Leds {
         Leds::from_inputs(&LedInputs {
-            nmt: core.nmt,
-            lss_configuration: core.lss.enabled() && core.lss.state() == LssState::Configuration,
+            nmt: self.status.nmt,
+            lss_configuration: self.status.lss_configuration,
             bus_off: self.bus_off,
             warning_limit: self.warning || self.passive,
-            guard_event: guarding::life_guard_event(core),
+            guard_event: self.status.life_guard_event,
             over_speed: self.over_speed,
         })
     }
@@ -458,6 +462,10 @@ impl Device for Wv5800m {
         self.table
     }
 
+    fn link(&self, e: &Entry) -> Option<Link> {
+        (e.hook == Hook::Device(hooks::CYCLE_TIMER)).then_some(CYCLE_TIMER_LINK)
+    }
+
     fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
         self.ensure_started(core);
         let hook = match core.od.entry(pos).hook {
@@ -501,10 +509,10 @@ impl Device for Wv5800m {
                 core.od.set_value(0x6509, 0, before.calibrated_at(raw));
             }
             hooks::CALIBRATE => {}
+            // The access path has applied the TPDO1 event-timer rule (`link`); the two entries
+            // hold one value.
             hooks::CYCLE_TIMER => {
-                let timer = core.od.pos(0x1800, 5).ok_or(Abort::GENERAL)?;
-                pdo::on_write(core, CoreHook::PdoEventTimer, timer, value, now)?;
-                core.od.set(timer, value);
+                core.od.set_value(0x1800, 5, value);
                 core.od.set_value(0x6200, 0, value);
             }
             _ => return Ok(()),
@@ -549,6 +557,12 @@ impl Device for Wv5800m {
             }
         }
         self.report(core, now);
+    }
+}
+
+impl CanopenDevice for Wv5800m {
+    fn on_status(&mut self, status: CanopenStatus) {
+        self.status = status;
     }
 }
 

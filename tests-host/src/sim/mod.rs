@@ -3,6 +3,7 @@
 
 pub mod decode;
 pub mod devices;
+pub mod master;
 pub mod options;
 pub mod run;
 #[cfg(target_os = "linux")]
