@@ -68,6 +68,7 @@
 
 pub mod claim;
 pub mod led;
+pub mod node;
 pub mod param;
 pub mod request;
 pub mod rx;

@@ -26,7 +26,7 @@ pub mod hooks {
     /// 2001h application offset: moves the position.
     pub const OFFSET: u8 = 5;
     /// 6003h calibration value: `0 ..= 6002h − 1`, and writing it calibrates (§4.2).
-    pub const CALIBRATE: u8 = 6;
+    pub const PRESET: u8 = 6;
     /// 2003h/2004h limit speeds.
     pub const LIMIT_SPEED: u8 = 7;
     /// 6200h cycle timer: the same value as 3000h.03 (EPOS cycle time).
@@ -170,10 +170,7 @@ pub const fn table(turns: Turns) -> [Entry; ENTRIES] {
                 .range(n, max_pos + 1)
                 .group(APP)
                 .hook(dev(hooks::TOTAL_RANGE)),
-            Entry::var(0x6003, "Preset value", Integer32, Rw, 0)
-                .range(0, max_pos)
-                .group(APP)
-                .hook(dev(hooks::CALIBRATE)),
+            Entry::var(0x6003, "Preset value", Integer32, Rw, 0).range(0, max_pos).group(APP).hook(dev(hooks::PRESET)),
             Entry::var(0x6004, "Position value", Unsigned32, Ro, 0).pdo(),
             Entry::var(0x600C, "Position raw value", Unsigned32, Ro, 0),
             Entry::array(0x6030, "Speed value", 1, Ro),
