@@ -436,5 +436,16 @@ pub fn bench() -> Vec<DeviceSpec> {
         d(Kind::Sgh10, 10, false, Motion::Sine(300_000.0, 20.0)),
         d(Kind::Sgh50, 20, true, Motion::Ramp(50_000.0)),
         d(Kind::Wv5800m, 30, false, Motion::Sine(40_000.0, 8.0)),
+        // A redundant WV58MR on can1 (J1939, 250 kbit/s): both channels claim EFh, one moves.
+        DeviceSpec {
+            kind: Kind::Wv58mr,
+            bus: "can1".into(),
+            node: None,
+            address: None,
+            serial: Some(1050),
+            variant: None,
+            redundant: true,
+            motion: Some(Motion::Sine(1_000_000.0, 10.0)),
+        },
     ]
 }

@@ -93,7 +93,19 @@ pub fn describe(frame: &Frame, nodes: &[Known]) -> String {
             od_core::CanId::Std(id) => format!("{id:03X}"),
         };
     };
-    let from = sender(nodes, m.id.source().0);
+    // A claim names its sender by NAME (two channels may claim one address at once).
+    let from = match m.payload {
+        Payload::AddressClaimed(c) | Payload::CannotClaim(c) => {
+            match nodes
+                .iter()
+                .find(|k| k.core.od.pos(0x3001, 1).is_some() && od_core::j1939::node::name_of(&k.core.od) == c.name)
+            {
+                Some(k) => format!("{}@{:02X}h", k.label, m.id.source().0),
+                None => sender(nodes, m.id.source().0),
+            }
+        }
+        _ => sender(nodes, m.id.source().0),
+    };
     let to = match m.id.destination() {
         Some(d) if d.0 == 0xFF => " -> all".to_string(),
         Some(d) => format!(" -> {}", sender(nodes, d.0)),

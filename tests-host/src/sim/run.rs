@@ -139,7 +139,10 @@ pub fn run(opts: &Options) -> Result<(), String> {
         let nodes: Vec<(usize, u8)> = buses
             .iter()
             .enumerate()
-            .flat_map(|(b, bus)| (0..bus.segment.len()).map(move |i| (b, bus.segment.core(i).node_id)))
+            .flat_map(|(b, bus)| (0..bus.segment.len()).map(move |i| (b, bus.segment.core(i))))
+            // A CANopen master: the J1939 nodes (no SDO server, 1200h) are left alone.
+            .filter(|(_, core)| core.od.pos(0x1200, 1).is_some())
+            .map(|(b, core)| (b, core.node_id))
             .collect();
         BenchMaster::new(&nodes)
     });
