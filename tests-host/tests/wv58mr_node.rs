@@ -108,6 +108,34 @@ fn green_blinks_while_claiming_and_is_on_once_the_claim_stood() {
 }
 
 #[test]
+fn the_device_shows_the_same_leds_as_its_node_in_virtual_time() {
+    let table = table_of(Turns::Multi12);
+    let pages = factory_pages(table, None, Some(SERIAL)).unwrap();
+    let mut params = ParamFlash::new(RamFlash::from_bytes(pages), REGION, identity(table));
+    let mut node = J1939Node::boot(Wv58mr::new(Turns::Multi12), &params.load());
+    assert_eq!(node.device().leds().green, LedState::Off, "before the start");
+    let d = delay_us(SERIAL);
+    let mut t = Instant::ZERO;
+    // Blinking green while claiming: 200 ms on, 200 ms off, on the device as on the node.
+    while t < Instant::from_micros(d).add_millis(250) {
+        node.poll(t);
+        while node.next_output().is_some() {}
+        assert_eq!(node.device().leds(), node.leds(), "{t:?}");
+        if t > Instant::ZERO {
+            assert_eq!(node.leds().green, LedState::Flashing);
+            let lit = node.device().leds().lit(t).green;
+            assert_eq!(lit, t.as_micros() % 400_000 < 200_000, "{t:?}");
+        }
+        t = match node.next_deadline() {
+            Some(n) if n > t => n.min(t.add_millis(50)),
+            _ => t.add_millis(50),
+        };
+    }
+    node.poll(Instant::from_micros(d).add_millis(250));
+    assert_eq!(node.device().leds().green, LedState::On);
+}
+
+#[test]
 fn d2_d3_speed_in_espd() {
     let (mut bus, _, sensor) = setup(SERIAL);
     claimed(&mut bus, SERIAL);

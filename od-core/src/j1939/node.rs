@@ -30,7 +30,7 @@ use crate::context::{BusEvent, Context, Output, ResetKind};
 use crate::device::Device;
 use crate::errors::Gate;
 use crate::frame::Frame;
-use crate::j1939::claim::AddressClaimer;
+use crate::j1939::claim::{AddressClaimer, State};
 use crate::j1939::led::{self, LedInputs};
 use crate::j1939::rx::{self, Filter};
 use crate::j1939::schedule::{Cyclic, Scheduler};
@@ -74,6 +74,11 @@ pub trait J1939Device: Device {
     /// Is the maximum speed exceeded (the yellow LED)?
     fn over_speed(&self) -> bool {
         false
+    }
+
+    /// The address claimer's state changed (or may have): what the green LED shows.
+    fn on_claim(&mut self, state: State) {
+        let _ = state;
     }
 }
 
@@ -312,6 +317,7 @@ impl<D: J1939Device> J1939Node<D> {
     /// Starts or stops the cyclic groups as the claim stands or falls; a claim that has just
     /// stood announces the error conditions still active.
     fn follow_claim(&mut self, now: Instant) {
+        self.device.on_claim(self.claim.state());
         match (self.claim.source_address(), self.cyclic.is_running()) {
             (Some(sa), false) => {
                 // The context's address is the one the node sends from.
@@ -370,6 +376,7 @@ impl<D: J1939Device> J1939Node<D> {
         self.sdo.reset();
         self.deferred_to = None;
         self.claim.start_delayed(now);
+        self.device.on_claim(self.claim.state());
         self.generation = self.generation.wrapping_add(1);
     }
 

@@ -22,7 +22,10 @@ use crate::context::{BusEvent, Context, ResetKind};
 use crate::device::Device;
 use crate::devices::wv5800m::{Model, Turns, Variant, Wv5800m};
 use crate::encoder::{Encoder, SensorFault};
+use crate::j1939::claim::State;
+use crate::j1939::led::{self, LedInputs};
 use crate::j1939::node::{Command, J1939Device};
+use crate::led::Leds;
 use crate::od::{Entry, Hook};
 use crate::time::Instant;
 use crate::wire::j1939::NameFields;
@@ -33,6 +36,8 @@ pub struct Wv58mr {
     turns: Turns,
     encoder: Wv5800m,
     command: Option<Command>,
+    /// The address claimer's state as the node last told it.
+    claim: State,
 }
 
 impl Wv58mr {
@@ -42,7 +47,16 @@ impl Wv58mr {
             turns,
             encoder: Wv5800m::with_table(Variant { model: Model::Wv, turns }, table_of(turns)),
             command: None,
+            claim: State::Off,
         }
+    }
+
+    /// What the channel's three LEDs show now (manual §3, D-J1939-8): green the claim as the
+    /// node last reported it, red the CAN controller's state, yellow the over-speed;
+    /// [`Leds::lit`] gives the blink phase at an instant.
+    pub fn leds(&self) -> Leds {
+        let (bus_off, warning_limit) = self.encoder.can_state();
+        led::leds(&LedInputs { claim: self.claim, bus_off, warning_limit, over_speed: self.encoder.over_speed() })
     }
 
     /// The measuring range.
@@ -141,6 +155,10 @@ impl J1939Device for Wv58mr {
 
     fn over_speed(&self) -> bool {
         self.encoder.over_speed()
+    }
+
+    fn on_claim(&mut self, state: State) {
+        self.claim = state;
     }
 }
 
