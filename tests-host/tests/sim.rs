@@ -910,6 +910,21 @@ fn a_wv58mr_pair_claims_and_publishes_on_can1() {
 }
 
 #[test]
+fn the_bench_has_a_wv58mr_pair_on_can1_that_the_master_leaves_alone() {
+    let sim = Sim::start(&[]);
+    let mut c = sim.open("can1");
+    assert!(c.wait_for("0CFC5FEF", 3000).is_some(), "EPOS from EFh");
+    assert!(c.wait_for("0CFC5F80", 3000).is_some(), "EPOS from 80h");
+    // No CANopen frame reaches can1 within the bench master's first requests.
+    let deadline = WallClock::now() + Duration::from_millis(1500);
+    while WallClock::now() < deadline {
+        if let Some((id, _)) = c.frame() {
+            assert_eq!(id.len(), 8, "an 11-bit frame on can1: {id}");
+        }
+    }
+}
+
+#[test]
 fn unavailable_devices_fail_cleanly() {
     let out = Command::new(sim_bin()).args(["--device", "ap10t"]).output().unwrap();
     assert!(!out.status.success());
