@@ -597,3 +597,82 @@ fn sae_initialise_claims_again_at_the_address_in_ram() {
     // The dictionary stayed: 5F0Ah.01 reads 90h, unsaved.
     assert_eq!(cam_read(&mut bus, Address(0x90), MASTER, 0x5F0A, 1)[4], 0x90);
 }
+
+#[test]
+fn nothing_is_answered_before_the_claim_stood_and_the_filters_follow_the_address() {
+    let table = table_of(Turns::Multi12);
+    let pages = factory_pages(table, None, Some(SERIAL)).unwrap();
+    let mut params = ParamFlash::new(RamFlash::from_bytes(pages), REGION, identity(table));
+    let mut node = J1939Node::boot(Wv58mr::new(Turns::Multi12), &params.load());
+    let d = Instant::from_micros(delay_us(SERIAL));
+    node.poll(Instant::ZERO);
+    let g0 = od_core::Station::rx_ids_generation(&node);
+    assert!(node.filters().iter().all(|f| !f.matches(0x1C06_EF00)), "no CAM21 before an address");
+    node.poll(d);
+    let out = |node: &mut J1939Node<Wv58mr>| {
+        let mut v = Vec::new();
+        while let Some(o) = node.next_output() {
+            v.push(o);
+        }
+        v
+    };
+    assert_eq!(out(&mut node).len(), 1, "the claim");
+    assert!(node.filters().iter().any(|f| f.matches(0x1C06_EF00)), "CAM21 to EFh once claimed");
+    // During the 250 ms: no answer to CAM21 nor to a Request for EPOS.
+    node.on_frame(&ext(0x1C06_EF00, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]), d.add_millis(100));
+    node.on_frame(&ext(0x18EA_EF00, &[0x5F, 0xFC, 0x00]), d.add_millis(100));
+    assert!(out(&mut node).is_empty());
+    node.poll(d.add_millis(250));
+    assert_ne!(od_core::Station::rx_ids_generation(&node), g0, "the filters change when the claim stands");
+    node.on_frame(&ext(0x1C06_EF00, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]), d.add_millis(260));
+    let frames: Vec<Frame> = out(&mut node)
+        .into_iter()
+        .filter_map(|o| match o {
+            od_core::Output::Frame(f) => Some(f),
+            _ => None,
+        })
+        .collect();
+    assert!(frames.iter().any(|f| raw_id(f) == 0x1C05_00EF));
+}
+
+mod fuzz {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Any frames at any times: the node never panics, and everything it sends comes from
+        /// its claimed address, or is a claim (Cannot Claim from FEh).
+        #[test]
+        fn any_bus_input_is_survived(
+            frames in proptest::collection::vec(
+                (any::<u32>(), proptest::collection::vec(any::<u8>(), 0..=8), 0u64..400_000, any::<bool>()),
+                1..60,
+            )
+        ) {
+            let table = table_of(Turns::Multi12);
+            let pages = factory_pages(table, None, Some(SERIAL)).unwrap();
+            let mut params = ParamFlash::new(RamFlash::from_bytes(pages), REGION, identity(table));
+            let mut node = J1939Node::boot(Wv58mr::new(Turns::Multi12), &params.load());
+            let mut t = Instant::ZERO;
+            for (id, data, dt, aimed) in frames {
+                t = t.add_micros(dt);
+                // Half of them aimed at the device's own groups, to get past the parser.
+                let id = if aimed { (id & 0x1C00_00FF) | [0x06EF00, 0xEAEF00, 0xEEFF00, 0xEAFF00][(id >> 8) as usize & 3] } else { id & 0x1FFF_FFFF };
+                node.on_frame(&Frame::new(CanId::Ext(id), &data), t);
+                node.poll(t);
+                while let Some(o) = node.next_output() {
+                    match o {
+                        od_core::Output::Frame(f) => {
+                            let sa = raw_id(&f) & 0xFF;
+                            let claim = (raw_id(&f) >> 8) & 0x3FF00 == 0xEE00;
+                            prop_assert!(claim || node.source_address().map(|a| a.0 as u32) == Some(sa) || sa == 0xEF, "{:08X}", raw_id(&f));
+                        }
+                        od_core::Output::Store(_) => node.store_done(Ok(()), t),
+                        od_core::Output::SetBitrate(_) => {}
+                    }
+                }
+            }
+        }
+    }
+}
