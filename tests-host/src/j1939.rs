@@ -79,6 +79,10 @@ impl<E: Encoder + J1939Device> od_core::Station for SensedJ1939<E> {
         od_core::Station::rx_ids(&self.node)
     }
 
+    fn rx_masks(&self) -> od_core::shell::RxMasks {
+        od_core::Station::rx_masks(&self.node)
+    }
+
     fn rx_ids_generation(&self) -> u32 {
         od_core::Station::rx_ids_generation(&self.node)
     }

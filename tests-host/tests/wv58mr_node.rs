@@ -618,6 +618,11 @@ fn nothing_is_answered_before_the_claim_stood_and_the_filters_follow_the_address
     };
     assert_eq!(out(&mut node).len(), 1, "the claim");
     assert!(node.filters().iter().any(|f| f.matches(0x1C06_EF00)), "CAM21 to EFh once claimed");
+    let masks = od_core::Station::rx_masks(&node);
+    assert_eq!(masks.len(), 4);
+    assert!(masks.iter().any(|&(id, m)| 0x1C06_EF00 & m == id & m));
+    assert!(masks.iter().all(|&(id, m)| 0x1C06_4A00 & m != id & m), "CAM21 to another device");
+    assert!(od_core::Station::rx_ids(&node).is_empty());
     // During the 250 ms: no answer to CAM21 nor to a Request for EPOS.
     node.on_frame(&ext(0x1C06_EF00, &[0x40, 0x00, 0x10, 0x00, 0, 0, 0, 0]), d.add_millis(100));
     node.on_frame(&ext(0x18EA_EF00, &[0x5F, 0xFC, 0x00]), d.add_millis(100));

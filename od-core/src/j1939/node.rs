@@ -38,7 +38,7 @@ use crate::j1939::{param, request};
 use crate::led::{Leds, WARNING_LIMIT};
 use crate::od::{CoreHook, Od};
 use crate::sdo::SdoServer;
-use crate::shell::{DeviceStation, RxIds, Station};
+use crate::shell::{DeviceStation, RxIds, RxMasks, Station};
 use crate::storage::{self, Loaded};
 use crate::time::{earliest, Instant};
 use crate::wire::j1939::{Address, Emcy, Epos, Espd, Identifier, Name, NameFields, Pgn, Priority, ProprietaryB};
@@ -439,10 +439,20 @@ impl<D: J1939Device> Station for J1939Node<D> {
     fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
         J1939Node::store_done(self, result, now)
     }
-    /// Empty: a J1939 node receives by identifier and mask ([`J1939Node::filters`]), which
+    /// Empty: a J1939 node receives by identifier and mask ([`Station::rx_masks`]), which
     /// exact identifiers cannot express (claims come from any source address).
     fn rx_ids(&self) -> RxIds {
         RxIds::new()
+    }
+    /// [`J1939Node::filters`], without repeats.
+    fn rx_masks(&self) -> RxMasks {
+        let mut masks = RxMasks::new();
+        for f in self.filters() {
+            if !masks.contains(&(f.id, f.mask)) {
+                let _ = masks.push((f.id, f.mask));
+            }
+        }
+        masks
     }
     fn rx_ids_generation(&self) -> u32 {
         self.generation
