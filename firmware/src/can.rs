@@ -162,14 +162,23 @@ impl Bus {
         filters.enable_bank(0, Fifo::Fifo0, BankConfig::Mask32(Mask32::accept_all()));
     }
 
-    /// Programs the acceptance filters to pass exactly `ids` (all banks on FIFO 0, so frames
-    /// keep their order).
-    pub fn set_filters(&mut self, ids: &[RxId]) {
-        let banks = banks(ids, BANKS);
+    /// Programs the acceptance filters to pass exactly `ids`, and the 29-bit data frames each
+    /// (identifier, mask) of `masks` passes (a J1939 node's), one bank each after the lists (all
+    /// banks on FIFO 0, so frames keep their order).
+    pub fn set_filters(&mut self, ids: &[RxId], masks: &[(u32, u32)]) {
+        let banks = banks(ids, BANKS.saturating_sub(masks.len()));
         let mut filters = self.can.modify_filters();
         filters.clear();
         for (i, bank) in banks.iter().enumerate() {
             filters.enable_bank(i as u8, Fifo::Fifo0, bank_config(bank));
+        }
+        for (k, &(id, mask)) in masks.iter().enumerate().take(BANKS - banks.len()) {
+            let (Some(id), Some(mask)) = (ExtendedId::new(id & 0x1FFF_FFFF), ExtendedId::new(mask & 0x1FFF_FFFF))
+            else {
+                continue;
+            };
+            let bank = BankConfig::Mask32(Mask32::frames_with_ext_id(id, mask));
+            filters.enable_bank((banks.len() + k) as u8, Fifo::Fifo0, bank);
         }
     }
 

@@ -17,8 +17,10 @@ use embassy_stm32::peripherals::IWDG;
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_time::{Duration, Timer};
 use od_core::encoder::program_serial;
+use od_core::j1939::node::{J1939Device, J1939Node};
 use od_core::node::{CanopenDevice, Device, Node, Output};
 use od_core::od::{Entry, Group};
+use od_core::storage::{Loaded, Record};
 use od_core::time::earliest;
 use od_core::{DeviceStation, Instant};
 use static_cell::StaticCell;
@@ -48,6 +50,26 @@ pub fn boot<D: CanopenDevice>(device: D, params: &mut Params, uid: &[u8; 12]) ->
         node.context().bitrate.kbit(),
         if loaded.image().is_some() { "stored" } else { "defaults" }
     );
+    node
+}
+
+/// Powers a J1939 node on from what the parameter pages hold; a board without a stored serial
+/// number gets one derived from the MCU's unique ID, as [`boot`] does (the NAME's identity
+/// number follows it, D-J1939-16).
+pub fn boot_j1939<D: J1939Device>(device: D, params: &mut Params, uid: &[u8; 12]) -> J1939Node<D> {
+    let loaded = params.load();
+    let has_serial = loaded.image().is_some_and(|image| image.get(0x1018, 4).is_some());
+    if has_serial {
+        return J1939Node::boot(device, &loaded);
+    }
+    // The serial is factory data the NAME is built from at boot: put it in the image first.
+    let mut image = loaded.image().cloned().unwrap_or_default();
+    let table = device.table();
+    for e in table.iter().filter(|e| (e.index, e.sub) == (0x1018, 4) || (e.index, e.sub) == (0x650B, 0)) {
+        let _ = image.set(Record::of(e, serial_from_uid(uid)));
+    }
+    let node = J1939Node::boot(device, &Loaded::Image(image));
+    defmt::info!("boot: J1939 address {=u8}, {=u32} kbit/s", node.context().node_id, node.context().bitrate.kbit());
     node
 }
 
@@ -156,7 +178,7 @@ where
             if node.listen_only() {
                 bus.accept_all();
             } else {
-                bus.set_filters(&node.rx_ids());
+                bus.set_filters(&node.rx_ids(), &node.rx_masks());
             }
             filters = Some(generation);
         }

@@ -13,6 +13,13 @@ pub const MAX_RX_IDS: usize = 5 + 2 * crate::pdo::MAX_RPDOS + crate::pdo::MAX_TP
 /// The list [`Station::rx_ids`] returns.
 pub type RxIds = heapless::Vec<RxId, MAX_RX_IDS>;
 
+/// Most acceptance masks [`Station::rx_masks`] lists (a J1939 node: four).
+pub const MAX_RX_MASKS: usize = 4;
+
+/// The list [`Station::rx_masks`] returns: (identifier, mask) pairs over 29-bit identifiers; a
+/// frame passes when `id & mask == identifier & mask`.
+pub type RxMasks = heapless::Vec<(u32, u32), MAX_RX_MASKS>;
+
 /// A node as its shell drives it. The shell feeds it with [`Station::on_frame`],
 /// [`Station::on_bus_event`] and [`Station::poll`], carries out the [`Output`]s it takes from
 /// [`Station::next_output`] (reporting stores with [`Station::store_done`]), programs its
@@ -40,6 +47,13 @@ pub trait Station {
     /// Every frame the node acts on in some state, for the acceptance filters; frames of any
     /// other kind it ignores.
     fn rx_ids(&self) -> RxIds;
+
+    /// The frames the node acts on that exact identifiers cannot list, as masks over 29-bit
+    /// data frames (a J1939 node: claims from any source). Empty by default (CANopen). They
+    /// change only when [`Station::rx_ids_generation`] does.
+    fn rx_masks(&self) -> RxMasks {
+        RxMasks::new()
+    }
 
     /// A number that changes whenever [`Station::rx_ids`] may have changed.
     fn rx_ids_generation(&self) -> u32;

@@ -306,3 +306,30 @@ pub fn value(core: &Core, index: u16, sub: u8) -> i64 {
     let pos = core.od.pos(index, sub).unwrap_or_else(|| panic!("no {index:04X}h.{sub:02X}"));
     core.od.entry(pos).dtype.to_i64(core.od.get(pos))
 }
+
+/// What another transport's station wrapper needs of a [`Sensor`] (the J1939 one in
+/// [`crate::j1939`]).
+impl Sensor {
+    /// The station saw `now`.
+    pub(crate) fn tick(&self, now: Instant) {
+        self.0.borrow_mut().now = now;
+    }
+
+    /// The next CAN controller event waiting for the node.
+    pub(crate) fn next_event(&self) -> Option<BusEvent> {
+        self.0.borrow_mut().events.pop_front()
+    }
+
+    /// One sample at `now`.
+    pub(crate) fn sample(&self, now: Instant) -> Result<u32, SensorFault> {
+        let mut s = self.0.borrow_mut();
+        s.samples += 1;
+        s.read(now)
+    }
+
+    /// When the station must run for a waiting event, if any.
+    pub(crate) fn event_due(&self) -> Option<Instant> {
+        let s = self.0.borrow();
+        (!s.events.is_empty()).then_some(s.now)
+    }
+}

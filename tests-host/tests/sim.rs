@@ -200,10 +200,15 @@ fn device_specs_and_their_errors() {
 // ---- registry ----
 
 #[test]
-fn kinds_not_built_yet_say_so_and_wrong_keys_are_refused() {
+fn the_j1939_kind_builds_and_wrong_keys_are_refused() {
     let r = Registry::new(None);
-    let err = r.build(&parse_device("wv58mr").unwrap(), 1, 0).err().unwrap();
-    assert!(err.contains("not yet available"), "wv58mr: {err}");
+    assert_eq!(r.build(&parse_device("wv58mr").unwrap(), 1, 0).unwrap().len(), 1);
+    let pair = r.build(&parse_device("wv58mr:redundant=true,serial=7").unwrap(), 1, 0).unwrap();
+    assert_eq!(
+        pair.iter().map(|p| (p.label.as_str(), p.bus.as_str())).collect::<Vec<_>>(),
+        [("WV58MR-A", "can1"), ("WV58MR-B", "can1")]
+    );
+    assert!(r.build(&parse_device("wv58mr:variant=xyz").unwrap(), 1, 0).is_err());
     let err = r.build(&parse_device("sgh10:address=5").unwrap(), 1, 0).err().unwrap();
     assert!(err.contains("takes node="), "{err}");
     let err = r.build(&parse_device("sgh50:node=127,redundant=true").unwrap(), 1, 0).err().unwrap();
@@ -339,10 +344,27 @@ fn decodes_frames_for_the_live_view() {
         d(Frame::std(0x28A, &[0x34, 0x12, 0, 0, 5, 0])),
         "SGH10#10 TPDO2 Position value=4660 (466.0 mm) Speed value channel 1=5"
     );
-    assert_eq!(d(Frame::new(CanId::Ext(0x18FE_F180), &[])), "29-bit 18FEF180 (J1939 PGN 0FEF1)");
     // Issue 13 point 7: PDU1 (PF below F0h) carries the destination, not part of the PGN.
-    assert_eq!(d(Frame::new(CanId::Ext(0x18EA_FF80), &[])), "29-bit 18EAFF80 (J1939 PGN 0EA00 to FF)");
-    assert_eq!(d(Frame::new(CanId::Ext(0x0CEF_2A80), &[])), "29-bit 0CEF2A80 (J1939 PGN 0EF00 to 2A)");
+    assert_eq!(d(Frame::new(CanId::Ext(0x18EA_FF80), &[])), "29-bit 18EAFF80 (J1939 PGN 0EA00 to FF, malformed)");
+    assert_eq!(d(Frame::new(CanId::Ext(0x0CEF_2A80), &[])), "SA 80h -> SA 2Ah PGN 61184 (0EF00h)");
+    assert_eq!(d(Frame::new(CanId::Ext(0x18FE_F180), &[])), "SA 80h PGN 65265 (0FEF1h)");
+    // J1939 frames: group, source (destination), meaning.
+    assert_eq!(
+        d(Frame::new(CanId::Ext(0x18EE_FFEF), &[0x45, 0x23, 0x21, 0x8E, 0, 0x8E, 0, 0xB0])),
+        "SA EFh -> all Address Claimed NAME B0008E008E212345"
+    );
+    assert_eq!(
+        d(Frame::new(CanId::Ext(0x0CFC_5FEF), &[0x45, 0x23, 1, 0, 0xFF, 0xFF, 0xFF, 0xFF])),
+        "SA EFh EPOS position=74565"
+    );
+    assert_eq!(
+        d(Frame::new(CanId::Ext(0x1C05_00EF), &[0x4B, 0, 0x30, 2, 0x32, 0, 0, 0])),
+        "SA EFh -> SA 00h CAM11 3000:02 = 32"
+    );
+    assert_eq!(
+        d(Frame::new(CanId::Ext(0x04FC_68EF), &[0, 0, 0, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF])),
+        "SA EFh EMCY 0000 register 00 (error reset)"
+    );
     assert_eq!(d(Frame::remote(CanId::Std(0x70A), 1)), "node guarding request to SGH10#10");
 }
 
@@ -874,11 +896,34 @@ fn bit_rates_nobody_uses_are_refused_or_hinted() {
 }
 
 #[test]
-fn unavailable_devices_fail_cleanly() {
-    let out = Command::new(sim_bin()).args(["--device", "wv58mr"]).output().unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("WV58MR (J1939) not yet available"), "{err}");
+fn a_wv58mr_pair_claims_and_publishes_on_can1() {
+    let sim = Sim::start(&["--device", "wv58mr:redundant=true,serial=1000,position=74565"]);
+    let mut c = sim.open("can1");
+    // Both claim EFh after their delays; the higher NAME moves to 80h; both publish EPOS.
+    assert!(c.wait_for("0CFC5FEF", 3000).is_some(), "EPOS from EFh");
+    assert_eq!(c.wait_for("0CFC5F80", 3000).as_deref(), Some("45230100FFFFFFFF"));
+    // CAM21 read of 3000h.02 from EFh.
+    c.say("< send 1C06EF00 8 40 00 30 02 00 00 00 00 >");
+    assert_eq!(c.wait_for("1C0500EF", 2000).as_deref(), Some("4B00300232000000"));
+}
+
+#[test]
+fn the_bench_has_a_wv58mr_pair_on_can1_that_the_master_leaves_alone() {
+    let sim = Sim::start(&[]);
+    let mut c = sim.open("can1");
+    assert!(c.wait_for("0CFC5FEF", 3000).is_some(), "EPOS from EFh");
+    assert!(c.wait_for("0CFC5F80", 3000).is_some(), "EPOS from 80h");
+    // No CANopen frame reaches can1 within the bench master's first requests.
+    let deadline = WallClock::now() + Duration::from_millis(1500);
+    while WallClock::now() < deadline {
+        if let Some((id, _)) = c.frame() {
+            assert_eq!(id.len(), 8, "an 11-bit frame on can1: {id}");
+        }
+    }
+}
+
+#[test]
+fn bad_options_fail_cleanly_and_help_lists_the_options() {
     let out = Command::new(sim_bin()).args(["--device", "sgh10:node=0"]).output().unwrap();
     assert_eq!(out.status.code(), Some(2));
     let out = Command::new(sim_bin()).arg("--help").output().unwrap();

@@ -347,6 +347,32 @@ impl Wv5800m {
         self.over_speed
     }
 
+    /// The same encoder behaviour over another dictionary with this variant's rows (the
+    /// J1939 WV58MR's: same CiA 406 objects, same hooks 1..=5 and 7).
+    pub(crate) fn with_table(variant: Variant, table: &'static [Entry]) -> Wv5800m {
+        Wv5800m { table, ..Wv5800m::new(variant) }
+    }
+
+    /// The last valid raw count (600Ch), `None` before the first sample and while the sensor
+    /// fails.
+    pub const fn raw(&self) -> Option<u32> {
+        self.raw
+    }
+
+    /// The CAN controller's state as the device last heard it: (bus-off, an error counter at
+    /// the warning limit or error passive).
+    pub const fn can_state(&self) -> (bool, bool) {
+        (self.bus_off, self.warning || self.passive)
+    }
+
+    /// Recomputes the derived objects (6002h, 650Ah, 6500h, 6004h), the work areas, alarms,
+    /// warnings and error conditions after the dictionary changed outside [`Device::on_write`].
+    pub(crate) fn refresh(&mut self, core: &mut Core, now: Instant) {
+        self.ensure_started(core);
+        self.derive(&mut core.od);
+        self.evaluate(core, now);
+    }
+
     /// What the three LEDs show now ([`Leds::lit`] gives the blink phase at an instant): the
     /// node's status as it last told the device ([`CanopenDevice::on_status`]) and the
     /// device's own conditions.

@@ -7,13 +7,15 @@
 //! - [`request`]: what the node does with a Request (PGN 59904): send the group, NACK, or stay
 //!   silent;
 //! - [`led`]: the three LEDs of a WV58MR channel;
+//! - [`node`]: the J1939 node that puts them together over the transport-neutral context and a
+//!   device, behind the shell trait (`crate::shell::Station`);
 //! - [`param`]: the J1939 addressing around the SDO server for CAM21/CAM11;
 //! - [`rx`]: the frames a node receives, as acceptance filters;
 //! - [`schedule`]: cyclic transmission of the process-data groups at their cycle times and
 //!   priorities (3000h).
 //!
-//! How a node puts them together (the shape of the J1939 node still to come; the SDO server and
-//! the dictionary fill in the payloads):
+//! How a node puts them together ([`node::J1939Node`] does this over the dictionary, with the
+//! SDO server behind CAM21/CAM11), in miniature:
 //!
 //! ```
 //! use od_core::j1939::{claim::AddressClaimer, request, schedule::{Cyclic, Scheduler}};
@@ -68,6 +70,7 @@
 
 pub mod claim;
 pub mod led;
+pub mod node;
 pub mod param;
 pub mod request;
 pub mod rx;

@@ -151,7 +151,7 @@ pub fn describe(frame: &Frame, nodes: &[Known]) -> String {
     let d = frame.payload();
     let id = match frame.id {
         CanId::Std(id) => id,
-        CanId::Ext(id) => return format!("29-bit {id:08X} ({})", j1939_pgn(id)),
+        CanId::Ext(_) => return super::j1939::describe(frame, nodes),
     };
     let node = (id & 0x7F) as u8;
     if frame.rtr {
@@ -224,7 +224,7 @@ fn pdo(id: u16, d: &[u8], nodes: &[Known]) -> Option<String> {
 
 /// The J1939 parameter group of a 29-bit identifier (J1939-21 5.1.2): in PDU1 format (PF below
 /// F0h) the PDU specific byte is the destination address, not part of the PGN.
-fn j1939_pgn(id: u32) -> String {
+pub(super) fn j1939_pgn(id: u32) -> String {
     let (dp_pf, ps) = ((id >> 8) & 0x3FF00, (id >> 8) & 0xFF);
     if (id >> 16) & 0xFF < 0xF0 {
         format!("J1939 PGN {dp_pf:05X} to {ps:02X}")

@@ -1,6 +1,5 @@
 //! The device registry: how each `--device` kind becomes nodes on a segment, each with its
-//! parameter flash and, for encoders, a simulated sensor. A kind not built yet answers
-//! [`Registry::build`] with a "not yet available" error; adding it is one arm of `plan`.
+//! parameter flash and, for encoders, a simulated sensor. Every kind is one arm of `plan`.
 
 use std::f64::consts::TAU;
 use std::path::Path;
@@ -159,6 +158,9 @@ impl<'a> Registry<'a> {
             };
             // `serial=` is the first channel's; the second channel is a board of its own.
             let serial = spec.serial.map(|s| s.wrapping_add(n as u32));
+            // J1939: `address=` is what 5F0Ah.01 was set to, both channels alike (D-J1939-17);
+            // their serial numbers, and so their NAMEs, differ.
+            let node = if spec.kind.is_j1939() { spec.address } else { node };
             let params = self.params(&file, channel.table, node, serial)?;
             plans.push(NodePlan { label: channel.label, bus: spec.bus.clone(), params, boot: channel.boot });
         }
@@ -288,8 +290,6 @@ fn encoder_boot<E: Encoder + CanopenDevice + Clone + 'static>(
 /// The nodes a device spec makes. The one place that knows every kind.
 fn plan(spec: &DeviceSpec, position: usize) -> Result<Vec<Channel>, String> {
     let uid = |channel| board_uid(&spec.bus, spec.kind, position, channel);
-    let unavailable =
-        |what: &str| Err(format!("--device {}: {what} not yet available in this build", spec.kind.name()));
     if spec.kind.is_j1939() {
         if spec.node.is_some() {
             return Err(format!("--device {}: a J1939 device takes address=, not node=", spec.kind.name()));
@@ -357,8 +357,39 @@ fn plan(spec: &DeviceSpec, position: usize) -> Result<Vec<Channel>, String> {
             }])
         }
         Kind::Ap10t => ap10t(spec),
-        Kind::Wv58mr => unavailable("the WV58MR (J1939)"),
+        Kind::Wv58mr => {
+            use od_core::devices::wv58mr;
+            let turns = wv58mr_turns(spec.variant.as_deref())?;
+            let max = rotary::raw_range(turns.revolutions()) - 1;
+            let motion = spec.motion.unwrap_or(Motion::Ramp(rotary::PHYSICAL_STEPS as f64 / 2.0));
+            let boot = move || -> Boot {
+                Box::new(move |loaded: &Loaded| {
+                    let node = od_core::j1939::node::J1939Node::boot(wv58mr::Wv58mr::new(turns), loaded);
+                    Box::new(super::j1939::SensedJ1939::new(node, motion, max))
+                })
+            };
+            let one = |label: &str, suffix| Channel {
+                label: label.into(),
+                suffix,
+                table: wv58mr::table_of(turns),
+                boot: boot(),
+            };
+            // D-J1939-17: the two channels of a redundant WV58MR are two nodes on the bus.
+            Ok(if spec.redundant { vec![one("WV58MR-A", "a"), one("WV58MR-B", "b")] } else { vec![one("WV58MR", "")] })
+        }
     }
+}
+
+/// `variant=` of a WV58MR: its revolutions, `mt12` (default), `mt8`, `mt4`, `st`.
+fn wv58mr_turns(name: Option<&str>) -> Result<wv5800m::Turns, String> {
+    use wv5800m::Turns;
+    Ok(match name.unwrap_or("mt12").to_ascii_lowercase().as_str() {
+        "st" | "1" => Turns::Single,
+        "mt4" | "16" => Turns::Multi4,
+        "mt8" | "256" => Turns::Multi8,
+        "mt12" | "4096" => Turns::Multi12,
+        v => return Err(format!("--device wv58mr: unknown variant {v} (st, mt4, mt8, mt12)")),
+    })
 }
 
 /// The AP10T: one display whose bit rate is detected on the bus unless a stored one says
@@ -419,5 +450,16 @@ pub fn bench() -> Vec<DeviceSpec> {
         d(Kind::Sgh10, 10, false, Motion::Sine(300_000.0, 20.0)),
         d(Kind::Sgh50, 20, true, Motion::Ramp(50_000.0)),
         d(Kind::Wv5800m, 30, false, Motion::Sine(40_000.0, 8.0)),
+        // A redundant WV58MR on can1 (J1939, 250 kbit/s): both channels claim EFh, one moves.
+        DeviceSpec {
+            kind: Kind::Wv58mr,
+            bus: "can1".into(),
+            node: None,
+            address: None,
+            serial: Some(1050),
+            variant: None,
+            redundant: true,
+            motion: Some(Motion::Sine(1_000_000.0, 10.0)),
+        },
     ]
 }

@@ -3,6 +3,7 @@
 
 pub mod decode;
 pub mod devices;
+pub mod j1939;
 pub mod master;
 pub mod options;
 pub mod run;

@@ -143,7 +143,10 @@ pub fn run(opts: &Options) -> Result<(), String> {
         let nodes: Vec<(usize, u8)> = buses
             .iter()
             .enumerate()
-            .flat_map(|(b, bus)| (0..bus.segment.len()).map(move |i| (b, bus.segment.core(i).node_id)))
+            .flat_map(|(b, bus)| (0..bus.segment.len()).map(move |i| (b, bus.segment.core(i))))
+            // A CANopen master: the J1939 nodes (no SDO server, 1200h) are left alone.
+            .filter(|(_, core)| core.od.pos(0x1200, 1).is_some())
+            .map(|(b, core)| (b, core.node_id))
             .collect();
         BenchMaster::new(&nodes)
     });
@@ -174,7 +177,10 @@ fn check_buses(opts: &Options, buses: &[SimBus]) -> Result<(), String> {
             for j in 0..i {
                 let (a, b) = (seg.core(j), seg.core(i));
                 let who = format!("{} and {} on {}", bus.labels[j], bus.labels[i], bus.name);
-                if a.node_id == b.node_id && a.node_id != UNCONFIGURED {
+                // J1939 nodes (no SDO server object 1200h) may share a configured address:
+                // address claiming separates them (D-J1939-24).
+                let canopen = |c: &od_core::node::Core| c.od.pos(0x1200, 1).is_some();
+                if a.node_id == b.node_id && a.node_id != UNCONFIGURED && canopen(a) && canopen(b) {
                     return Err(format!(
                         "{who} both have node-ID {}: give each device its own node= (or node=unconfigured \
                          to set it over LSS)",
