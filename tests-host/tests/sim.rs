@@ -1028,3 +1028,104 @@ fn socketcan_bridge_carries_frames_both_ways_where_vcan0_exists() {
     assert!(seen.contains(&Frame::std(0x70A, &[0])), "the boot-up reaches vcan0: {seen:?}");
     assert!(seen.contains(&Frame::std(0x123, &[0xAA])), "the client's frame reaches vcan0");
 }
+
+// ---- the control port ----
+
+/// A client of the control port (`--control`): one command, one reply line.
+struct Control(std::io::BufReader<TcpStream>);
+
+impl Control {
+    fn connect(port: u16) -> Control {
+        let s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
+        Control(std::io::BufReader::new(s))
+    }
+
+    fn ask(&mut self, command: &str) -> String {
+        use std::io::BufRead;
+        writeln!(self.0.get_mut(), "{command}").unwrap();
+        let mut line = String::new();
+        self.0.read_line(&mut line).unwrap();
+        line.trim_end().to_string()
+    }
+
+    /// Asks `command` until the reply contains `want` (at most 3 s); the last reply.
+    fn until(&mut self, command: &str, want: &str) -> String {
+        let deadline = WallClock::now() + Duration::from_secs(3);
+        loop {
+            let r = self.ask(command);
+            if r.contains(want) || WallClock::now() > deadline {
+                return r;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+/// The value of an expedited SDO upload of `index`.`sub` from `node`, through client `c`.
+fn sdo_read(c: &mut Client, node: u8, index: u16, sub: u8) -> u32 {
+    let [lo, hi] = index.to_le_bytes();
+    c.say(&f(0x600 + u16::from(node), &[0x40, lo, hi, sub, 0, 0, 0, 0]));
+    let data = c.wait_for(&format!("{:03X}", 0x580 + u16::from(node)), 1000).expect("SDO answer");
+    assert!(data.starts_with("4"), "an expedited answer, not an abort: {data}");
+    let b: Vec<u8> = (8..16).step_by(2).map(|k| u8::from_str_radix(&data[k..k + 2], 16).unwrap()).collect();
+    u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+}
+
+#[test]
+fn the_control_port_lists_presses_shows_and_positions() {
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    let sim = Sim::start(&["--control", &addr, "--device", "ap10t", "--device", "wv5800m:node=30,position=100"]);
+    let mut ctl = Control::connect(port);
+    assert_eq!(ctl.ask("list"), "ok can0:AP10T#125 can0:WV5800M#30");
+    // After the display test: no set point yet.
+    assert_eq!(ctl.until("screen AP10T", "---"), "ok [   ---|   ---] LED off/off light white+red");
+    // "←" shows node-ID and rate (D-AP-9), the front key goes back; names as the view gives them.
+    assert_eq!(ctl.ask("press can0:AP10T#125 left"), "ok");
+    assert_eq!(ctl.ask("screen can0:ap10t#125"), "ok [ID 125|  AUTO] LED off/off light white+red");
+    assert_eq!(ctl.ask("press AP10T parameterize"), "ok");
+    assert_eq!(ctl.ask("screen AP10T"), "ok [ID    |   125] LED off/off light white+red");
+    assert_eq!(ctl.ask("press AP10T back"), "ok");
+    assert_eq!(ctl.ask("screen AP10T"), "ok [   ---|   ---] LED off/off light white+red");
+    // The encoder's sensor, read back over the bus.
+    let mut c = sim.open("can0");
+    let before = sdo_read(&mut c, 30, 0x6004, 0);
+    assert_eq!(ctl.ask("position WV5800M#30 5000"), "ok");
+    let after = sdo_read(&mut c, 30, 0x6004, 0);
+    assert_eq!(after.wrapping_sub(before), 4900, "the position follows the sensor: {before} -> {after}");
+    assert!(ctl.ask("screen WV5800M").starts_with("ok LEDs green="));
+    // Errors, one line each; the connection stays usable.
+    for (command, error) in [
+        ("press WV5800M up", "error can0:WV5800M#30 has no keys"),
+        ("press AP10T enter", "error unknown key enter"),
+        ("screen AP10T#7", "error no device AP10T#7"),
+        ("screen can1:AP10T", "error no device can1:AP10T"),
+        ("position AP10T 5", "error can0:AP10T#125: it has no sensor"),
+        ("position WV5800M 99999999", "error can0:WV5800M#30: 99999999 is beyond"),
+        ("jump", "error unknown command jump"),
+        ("press AP10T", "error press: wrong arguments"),
+    ] {
+        let r = ctl.ask(command);
+        assert!(r.starts_with(error), "{command}: {r}");
+    }
+    assert_eq!(ctl.ask("list"), "ok can0:AP10T#125 can0:WV5800M#30");
+}
+
+#[test]
+fn the_control_port_is_off_unless_given() {
+    assert_eq!(Options::parse::<&str>(&[]).unwrap().control, None);
+    let o = Options::parse(&["--control", "127.0.0.1:4000"]).unwrap();
+    assert_eq!(o.control.as_deref(), Some("127.0.0.1:4000"));
+    assert!(Options::parse(&["--control", "4000"]).is_err());
+}
+
+#[test]
+fn two_devices_of_one_label_need_their_number() {
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    let _sim = Sim::start(&["--control", &addr, "--device", "sgh10:node=10", "--device", "sgh10:node=11"]);
+    let mut ctl = Control::connect(port);
+    assert_eq!(ctl.ask("position SGH10 5"), "error SGH10 names several devices: can0:SGH10#10 can0:SGH10#11");
+    assert_eq!(ctl.ask("position SGH10#11 5"), "ok");
+}

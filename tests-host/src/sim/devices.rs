@@ -115,6 +115,15 @@ impl<E: Encoder + CanopenDevice> Station for Sensed<E> {
     fn panel(&self) -> Option<String> {
         self.panel.map(|p| p(self.node.device(), self.node.core()))
     }
+    fn set_sensor(&mut self, raw: u32) -> Result<(), String> {
+        if raw > self.max {
+            return Err(format!("{raw} is beyond the sensor's range 0..={}", self.max));
+        }
+        self.motion = Motion::Fixed(raw);
+        // Sampled at the next turn, not at the next point of the device's grid.
+        self.next_sample = Instant::ZERO;
+        Ok(())
+    }
 }
 
 /// One node to put on a bus.

@@ -34,6 +34,12 @@ Options:
                           sends frames (a bus where no node runs at its rate gets a hint)
   --socketcan BUS=IFACE   also bridge BUS to a SocketCAN interface (vcan0, can0 ...), where
                           the kernel has CAN support
+  --control HOST:PORT     also serve the control port there, a line protocol for scripts
+                          (default: none): list | press DEVICE KEY | screen DEVICE |
+                          position DEVICE RAW, one reply line each (`ok ...` or
+                          `error ...`). DEVICE is [BUS:]LABEL[#ID] as the view names it
+                          (can0:AP10T#125); KEY is front, left, star, up, or a function
+                          of the AP10T's key table (confirm, auto_id, parameterize ...)
   --quiet                 no live view
   --trace FILE            also write every frame to FILE as a candump log
   -h, --help              this text
@@ -121,6 +127,8 @@ pub struct Options {
     pub bitrates: Vec<(String, Bitrate)>,
     /// `--socketcan BUS=IFACE`s.
     pub socketcan: Vec<(String, String)>,
+    /// `--control` (None: no control port).
+    pub control: Option<String>,
     /// `--quiet`.
     pub quiet: bool,
     /// `--trace`.
@@ -141,6 +149,7 @@ impl Options {
             state_dir: None,
             bitrates: Vec::new(),
             socketcan: Vec::new(),
+            control: None,
             quiet: false,
             trace: None,
             help: false,
@@ -157,12 +166,16 @@ impl Options {
             match name {
                 "-h" | "--help" => o.help = true,
                 "--quiet" => o.quiet = true,
-                "--listen" => {
+                "--listen" | "--control" => {
                     let v = value(name)?;
                     if v.rsplit_once(':').is_none_or(|(_, p)| p.parse::<u16>().is_err()) {
-                        return Err(format!("--listen {v}: expected HOST:PORT"));
+                        return Err(format!("{name} {v}: expected HOST:PORT"));
                     }
-                    o.listen = v;
+                    if name == "--listen" {
+                        o.listen = v;
+                    } else {
+                        o.control = Some(v);
+                    }
                 }
                 "--device" => o.devices.push(parse_device(&value(name)?)?),
                 "--state-dir" => o.state_dir = Some(value(name)?.into()),
