@@ -1129,3 +1129,72 @@ fn two_devices_of_one_label_need_their_number() {
     assert_eq!(ctl.ask("position SGH10 5"), "error SGH10 names several devices: can0:SGH10#10 can0:SGH10#11");
     assert_eq!(ctl.ask("position SGH10#11 5"), "ok");
 }
+
+// ---- the bench's display ----
+
+#[test]
+fn the_bench_master_starts_the_display_and_feeds_it_the_encoders_position() {
+    let mut m = BenchMaster::new(&[(0, 10), (0, 40)]).with_display(0, 40, 10);
+    let quiet = m.deadline();
+    assert!(quiet > 0);
+    // Another bus, a remote frame, another node's boot-up: nothing.
+    m.heard(1, &Frame::std(0x728, &[0]));
+    m.heard(0, &Frame::std(0x729, &[0]));
+    m.heard(0, &Frame::remote(CanId::Std(0x28A), 6));
+    assert_eq!(m.deadline(), quiet);
+    // The display boots up: the master starts it at once.
+    m.heard(0, &Frame::std(0x728, &[0]));
+    assert_eq!(m.deadline(), 0);
+    assert_eq!(m.due(0), vec![(0, Frame::std(0x000, &[0x01, 40]))]);
+    // The SGH10's TPDO2 (position 7546, speed 59) becomes set point 1, valid and acknowledged.
+    m.heard(0, &Frame::std(0x28A, &[0x7A, 0x1D, 0, 0, 0x3B, 0]));
+    assert_eq!(m.due(1), vec![(0, Frame::std(0x228, &[0x7A, 0x1D, 0, 0, 0, 0, 0x04, 0x04]))]);
+    assert_eq!(m.deadline(), quiet);
+    // Without a display the master answers nothing.
+    let mut plain = BenchMaster::new(&[(0, 10)]);
+    plain.heard(0, &Frame::std(0x28A, &[1, 2, 3, 4, 0, 0]));
+    assert!(plain.due(0).is_empty());
+}
+
+#[test]
+fn the_bench_display_shows_the_sgh10_position() {
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    let sim = Sim::start(&["--control", &addr]);
+    let mut ctl = Control::connect(port);
+    assert!(ctl.ask("list").contains("can0:AP10T#40"));
+    let mut c = sim.open("can0");
+    // The display detects the rate from the bench's traffic, boots up and is started; after a
+    // SYNC the SGH10's position goes to it.
+    let deadline = WallClock::now() + Duration::from_secs(12);
+    let (mut position, mut set_point) = (None, None);
+    let mut sent = Vec::new();
+    let mut watch = |c: &mut Client, position: &mut Option<String>, set_point: &mut Option<String>| {
+        if let Some((id, data)) = c.frame() {
+            match id.as_str() {
+                "28A" => *position = Some(data[..8].to_string()),
+                "228" => {
+                    assert_eq!(&data[8..], "00000404", "valid, acknowledged by the master");
+                    *set_point = Some(data[..8].to_string());
+                    sent.push(u32::from_str_radix(&data[..8], 16).unwrap().swap_bytes());
+                }
+                _ => {}
+            }
+        }
+    };
+    while set_point.is_none() || set_point != position {
+        assert!(WallClock::now() < deadline, "no set point from the SGH10: {position:?} {set_point:?}");
+        watch(&mut c, &mut position, &mut set_point);
+    }
+    // The screen shows a set point the master sent (it changes every second: those sent
+    // shortly after the question count too).
+    let shown = ctl.ask("screen AP10T");
+    let until = WallClock::now() + Duration::from_millis(1200);
+    while WallClock::now() < until {
+        watch(&mut c, &mut position, &mut set_point);
+    }
+    let row: String = shown.trim_start_matches("ok [").chars().take_while(|&ch| ch != '|').collect();
+    let value: u32 = row.trim().parse().unwrap_or_else(|_| panic!("not a number: {shown}"));
+    assert!(sent.contains(&value), "{shown} not among {sent:?}");
+    assert!(shown.ends_with("] LED green/off light white+red"), "acknowledged: {shown}");
+}

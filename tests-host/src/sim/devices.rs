@@ -459,6 +459,17 @@ pub fn bench() -> Vec<DeviceSpec> {
         d(Kind::Sgh10, 10, false, Motion::Sine(300_000.0, 20.0)),
         d(Kind::Sgh50, 20, true, Motion::Ramp(50_000.0)),
         d(Kind::Wv5800m, 30, false, Motion::Sine(40_000.0, 8.0)),
+        // An AP10T on node 40 as shipped (auto baud), showing the SGH10's position (D-SIM-19).
+        DeviceSpec {
+            kind: Kind::Ap10t,
+            bus: "can0".into(),
+            node: Some(40),
+            address: None,
+            serial: None,
+            variant: None,
+            redundant: false,
+            motion: None,
+        },
         // A redundant WV58MR on can1 (J1939, 250 kbit/s): both channels claim EFh, one moves.
         DeviceSpec {
             kind: Kind::Wv58mr,

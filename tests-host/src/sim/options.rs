@@ -14,7 +14,8 @@ sim: the SIKO devices on simulated CAN buses, served over socketcand (TCP, rawmo
 Usage: sim [OPTIONS]
 
 With no --device, starts the ready-made bench: every device available so far on distinct
-node-IDs on can0 (500 kbit/s), encoders' sensors moving.
+node-IDs on can0 (500 kbit/s), encoders' sensors moving, the AP10T (node 40) showing the
+SGH10's position; a redundant WV58MR on can1 (250 kbit/s).
 
 Options:
   --listen HOST:PORT      where socketcand clients connect (default 127.0.0.1:29536)

@@ -163,7 +163,18 @@ pub fn run(opts: &Options) -> Result<(), String> {
             .filter(|(_, core)| core.od.pos(0x1200, 1).is_some())
             .map(|(b, core)| (b, core.node_id))
             .collect();
-        BenchMaster::new(&nodes)
+        let master = BenchMaster::new(&nodes);
+        // The bench's display shows the SGH10's position (D-SIM-19).
+        let find = |label: &str| {
+            buses.iter().enumerate().find_map(|(b, bus)| {
+                let i = bus.labels.iter().position(|l| l == label)?;
+                Some((b, bus.segment.core(i).node_id))
+            })
+        };
+        match (find("AP10T"), find("SGH10")) {
+            (Some((b, display)), Some((s, source))) if b == s => master.with_display(b, display, source),
+            _ => master,
+        }
     });
     Sim {
         buses,
@@ -673,6 +684,9 @@ impl Sim {
         let wall = self.epoch + self.start.elapsed();
         let micros = wall.duration_since(UNIX_EPOCH).map(|d| d.as_micros() as u64).unwrap_or(0);
         let msg = sc::frame_message(frame, micros);
+        if let Some(m) = &mut self.master {
+            m.heard(b, frame);
+        }
         let who = match from {
             From::Node => String::new(),
             From::Client(id) => {
