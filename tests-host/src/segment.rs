@@ -39,6 +39,12 @@ pub trait Station: od_core::Station {
     fn as_any_mut(&mut self) -> Option<&mut dyn Any> {
         None
     }
+    /// Holds the station's simulated sensor at `raw` from now on (the simulator's control
+    /// port); an error text if the station has no sensor or `raw` is out of its range.
+    fn set_sensor(&mut self, raw: u32) -> Result<(), String> {
+        let _ = raw;
+        Err("it has no sensor".into())
+    }
 }
 
 impl<D: CanopenDevice> Station for Node<D> {

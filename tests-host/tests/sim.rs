@@ -1028,3 +1028,173 @@ fn socketcan_bridge_carries_frames_both_ways_where_vcan0_exists() {
     assert!(seen.contains(&Frame::std(0x70A, &[0])), "the boot-up reaches vcan0: {seen:?}");
     assert!(seen.contains(&Frame::std(0x123, &[0xAA])), "the client's frame reaches vcan0");
 }
+
+// ---- the control port ----
+
+/// A client of the control port (`--control`): one command, one reply line.
+struct Control(std::io::BufReader<TcpStream>);
+
+impl Control {
+    fn connect(port: u16) -> Control {
+        let s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
+        Control(std::io::BufReader::new(s))
+    }
+
+    fn ask(&mut self, command: &str) -> String {
+        use std::io::BufRead;
+        writeln!(self.0.get_mut(), "{command}").unwrap();
+        let mut line = String::new();
+        self.0.read_line(&mut line).unwrap();
+        line.trim_end().to_string()
+    }
+
+    /// Asks `command` until the reply contains `want` (at most 3 s); the last reply.
+    fn until(&mut self, command: &str, want: &str) -> String {
+        let deadline = WallClock::now() + Duration::from_secs(3);
+        loop {
+            let r = self.ask(command);
+            if r.contains(want) || WallClock::now() > deadline {
+                return r;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+/// The value of an expedited SDO upload of `index`.`sub` from `node`, through client `c`.
+fn sdo_read(c: &mut Client, node: u8, index: u16, sub: u8) -> u32 {
+    let [lo, hi] = index.to_le_bytes();
+    c.say(&f(0x600 + u16::from(node), &[0x40, lo, hi, sub, 0, 0, 0, 0]));
+    let data = c.wait_for(&format!("{:03X}", 0x580 + u16::from(node)), 1000).expect("SDO answer");
+    assert!(data.starts_with("4"), "an expedited answer, not an abort: {data}");
+    let b: Vec<u8> = (8..16).step_by(2).map(|k| u8::from_str_radix(&data[k..k + 2], 16).unwrap()).collect();
+    u32::from_le_bytes([b[0], b[1], b[2], b[3]])
+}
+
+#[test]
+fn the_control_port_lists_presses_shows_and_positions() {
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    let sim = Sim::start(&["--control", &addr, "--device", "ap10t", "--device", "wv5800m:node=30,position=100"]);
+    let mut ctl = Control::connect(port);
+    assert_eq!(ctl.ask("list"), "ok can0:AP10T#125 can0:WV5800M#30");
+    // After the display test: no set point yet.
+    assert_eq!(ctl.until("screen AP10T", "---"), "ok [   ---|   ---] LED off/off light white+red");
+    // "←" shows node-ID and rate (D-AP-9), the front key goes back; names as the view gives them.
+    assert_eq!(ctl.ask("press can0:AP10T#125 left"), "ok");
+    assert_eq!(ctl.ask("screen can0:ap10t#125"), "ok [ID 125|  AUTO] LED off/off light white+red");
+    assert_eq!(ctl.ask("press AP10T parameterize"), "ok");
+    assert_eq!(ctl.ask("screen AP10T"), "ok [ID    |   125] LED off/off light white+red");
+    assert_eq!(ctl.ask("press AP10T back"), "ok");
+    assert_eq!(ctl.ask("screen AP10T"), "ok [   ---|   ---] LED off/off light white+red");
+    // The encoder's sensor, read back over the bus.
+    let mut c = sim.open("can0");
+    let before = sdo_read(&mut c, 30, 0x6004, 0);
+    assert_eq!(ctl.ask("position WV5800M#30 5000"), "ok");
+    let after = sdo_read(&mut c, 30, 0x6004, 0);
+    assert_eq!(after.wrapping_sub(before), 4900, "the position follows the sensor: {before} -> {after}");
+    assert!(ctl.ask("screen WV5800M").starts_with("ok LEDs green="));
+    // Errors, one line each; the connection stays usable.
+    for (command, error) in [
+        ("press WV5800M up", "error can0:WV5800M#30 has no keys"),
+        ("press AP10T enter", "error unknown key enter"),
+        ("screen AP10T#7", "error no device AP10T#7"),
+        ("screen can1:AP10T", "error no device can1:AP10T"),
+        ("position AP10T 5", "error can0:AP10T#125: it has no sensor"),
+        ("position WV5800M 99999999", "error can0:WV5800M#30: 99999999 is beyond"),
+        ("jump", "error unknown command jump"),
+        ("press AP10T", "error press: wrong arguments"),
+    ] {
+        let r = ctl.ask(command);
+        assert!(r.starts_with(error), "{command}: {r}");
+    }
+    assert_eq!(ctl.ask("list"), "ok can0:AP10T#125 can0:WV5800M#30");
+}
+
+#[test]
+fn the_control_port_is_off_unless_given() {
+    assert_eq!(Options::parse::<&str>(&[]).unwrap().control, None);
+    let o = Options::parse(&["--control", "127.0.0.1:4000"]).unwrap();
+    assert_eq!(o.control.as_deref(), Some("127.0.0.1:4000"));
+    assert!(Options::parse(&["--control", "4000"]).is_err());
+}
+
+#[test]
+fn two_devices_of_one_label_need_their_number() {
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    let _sim = Sim::start(&["--control", &addr, "--device", "sgh10:node=10", "--device", "sgh10:node=11"]);
+    let mut ctl = Control::connect(port);
+    assert_eq!(ctl.ask("position SGH10 5"), "error SGH10 names several devices: can0:SGH10#10 can0:SGH10#11");
+    assert_eq!(ctl.ask("position SGH10#11 5"), "ok");
+}
+
+// ---- the bench's display ----
+
+#[test]
+fn the_bench_master_starts_the_display_and_feeds_it_the_encoders_position() {
+    let mut m = BenchMaster::new(&[(0, 10), (0, 40)]).with_display(0, 40, 10);
+    let quiet = m.deadline();
+    assert!(quiet > 0);
+    // Another bus, a remote frame, another node's boot-up: nothing.
+    m.heard(1, &Frame::std(0x728, &[0]));
+    m.heard(0, &Frame::std(0x729, &[0]));
+    m.heard(0, &Frame::remote(CanId::Std(0x28A), 6));
+    assert_eq!(m.deadline(), quiet);
+    // The display boots up: the master starts it at once.
+    m.heard(0, &Frame::std(0x728, &[0]));
+    assert_eq!(m.deadline(), 0);
+    assert_eq!(m.due(0), vec![(0, Frame::std(0x000, &[0x01, 40]))]);
+    // The SGH10's TPDO2 (position 7546, speed 59) becomes set point 1, valid and acknowledged.
+    m.heard(0, &Frame::std(0x28A, &[0x7A, 0x1D, 0, 0, 0x3B, 0]));
+    assert_eq!(m.due(1), vec![(0, Frame::std(0x228, &[0x7A, 0x1D, 0, 0, 0, 0, 0x04, 0x04]))]);
+    assert_eq!(m.deadline(), quiet);
+    // Without a display the master answers nothing.
+    let mut plain = BenchMaster::new(&[(0, 10)]);
+    plain.heard(0, &Frame::std(0x28A, &[1, 2, 3, 4, 0, 0]));
+    assert!(plain.due(0).is_empty());
+}
+
+#[test]
+fn the_bench_display_shows_the_sgh10_position() {
+    let port = free_port();
+    let addr = format!("127.0.0.1:{port}");
+    let sim = Sim::start(&["--control", &addr]);
+    let mut ctl = Control::connect(port);
+    assert!(ctl.ask("list").contains("can0:AP10T#40"));
+    let mut c = sim.open("can0");
+    // The display detects the rate from the bench's traffic, boots up and is started; after a
+    // SYNC the SGH10's position goes to it.
+    let deadline = WallClock::now() + Duration::from_secs(12);
+    let (mut position, mut set_point) = (None, None);
+    let mut sent = Vec::new();
+    let mut watch = |c: &mut Client, position: &mut Option<String>, set_point: &mut Option<String>| {
+        if let Some((id, data)) = c.frame() {
+            match id.as_str() {
+                "28A" => *position = Some(data[..8].to_string()),
+                "228" => {
+                    assert_eq!(&data[8..], "00000404", "valid, acknowledged by the master");
+                    *set_point = Some(data[..8].to_string());
+                    sent.push(u32::from_str_radix(&data[..8], 16).unwrap().swap_bytes());
+                }
+                _ => {}
+            }
+        }
+    };
+    while set_point.is_none() || set_point != position {
+        assert!(WallClock::now() < deadline, "no set point from the SGH10: {position:?} {set_point:?}");
+        watch(&mut c, &mut position, &mut set_point);
+    }
+    // The screen shows a set point the master sent (it changes every second: those sent
+    // shortly after the question count too).
+    let shown = ctl.ask("screen AP10T");
+    let until = WallClock::now() + Duration::from_millis(1200);
+    while WallClock::now() < until {
+        watch(&mut c, &mut position, &mut set_point);
+    }
+    let row: String = shown.trim_start_matches("ok [").chars().take_while(|&ch| ch != '|').collect();
+    let value: u32 = row.trim().parse().unwrap_or_else(|_| panic!("not a number: {shown}"));
+    assert!(sent.contains(&value), "{shown} not among {sent:?}");
+    assert!(shown.ends_with("] LED green/off light white+red"), "acknowledged: {shown}");
+}

@@ -115,6 +115,15 @@ impl<E: Encoder + CanopenDevice> Station for Sensed<E> {
     fn panel(&self) -> Option<String> {
         self.panel.map(|p| p(self.node.device(), self.node.core()))
     }
+    fn set_sensor(&mut self, raw: u32) -> Result<(), String> {
+        if raw > self.max {
+            return Err(format!("{raw} is beyond the sensor's range 0..={}", self.max));
+        }
+        self.motion = Motion::Fixed(raw);
+        // Sampled at the next turn, not at the next point of the device's grid.
+        self.next_sample = Instant::ZERO;
+        Ok(())
+    }
 }
 
 /// One node to put on a bus.
@@ -450,6 +459,17 @@ pub fn bench() -> Vec<DeviceSpec> {
         d(Kind::Sgh10, 10, false, Motion::Sine(300_000.0, 20.0)),
         d(Kind::Sgh50, 20, true, Motion::Ramp(50_000.0)),
         d(Kind::Wv5800m, 30, false, Motion::Sine(40_000.0, 8.0)),
+        // An AP10T on node 40 as shipped (auto baud), showing the SGH10's position (D-SIM-19).
+        DeviceSpec {
+            kind: Kind::Ap10t,
+            bus: "can0".into(),
+            node: Some(40),
+            address: None,
+            serial: None,
+            variant: None,
+            redundant: false,
+            motion: None,
+        },
         // A redundant WV58MR on can1 (J1939, 250 kbit/s): both channels claim EFh, one moves.
         DeviceSpec {
             kind: Kind::Wv58mr,

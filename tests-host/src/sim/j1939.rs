@@ -78,6 +78,14 @@ impl<E: Encoder + J1939Device> Station for SensedJ1939<E> {
         };
         Some(format!("LEDs green={:?} red={:?} yellow={:?} ({at})", l.green, l.red, l.yellow))
     }
+    fn set_sensor(&mut self, raw: u32) -> Result<(), String> {
+        if raw > self.max {
+            return Err(format!("{raw} is beyond the sensor's range 0..={}", self.max));
+        }
+        self.motion = Motion::Fixed(raw);
+        self.next_sample = Instant::ZERO;
+        Ok(())
+    }
 }
 
 /// The sender of a J1939 frame from source address `sa`, by the nodes' active addresses.

@@ -1,6 +1,7 @@
 //! The real-time simulator behind the `sim` binary: the SIKO devices on simulated CAN buses,
 //! served over the socketcand protocol (see README.md and `sim --help`).
 
+pub mod control;
 pub mod decode;
 pub mod devices;
 pub mod j1939;

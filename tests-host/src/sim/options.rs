@@ -14,7 +14,8 @@ sim: the SIKO devices on simulated CAN buses, served over socketcand (TCP, rawmo
 Usage: sim [OPTIONS]
 
 With no --device, starts the ready-made bench: every device available so far on distinct
-node-IDs on can0 (500 kbit/s), encoders' sensors moving.
+node-IDs on can0 (500 kbit/s), encoders' sensors moving, the AP10T (node 40) showing the
+SGH10's position; a redundant WV58MR on can1 (250 kbit/s).
 
 Options:
   --listen HOST:PORT      where socketcand clients connect (default 127.0.0.1:29536)
@@ -34,6 +35,12 @@ Options:
                           sends frames (a bus where no node runs at its rate gets a hint)
   --socketcan BUS=IFACE   also bridge BUS to a SocketCAN interface (vcan0, can0 ...), where
                           the kernel has CAN support
+  --control HOST:PORT     also serve the control port there, a line protocol for scripts
+                          (default: none): list | press DEVICE KEY | screen DEVICE |
+                          position DEVICE RAW, one reply line each (`ok ...` or
+                          `error ...`). DEVICE is [BUS:]LABEL[#ID] as the view names it
+                          (can0:AP10T#125); KEY is front, left, star, up, or a function
+                          of the AP10T's key table (confirm, auto_id, parameterize ...)
   --quiet                 no live view
   --trace FILE            also write every frame to FILE as a candump log
   -h, --help              this text
@@ -121,6 +128,8 @@ pub struct Options {
     pub bitrates: Vec<(String, Bitrate)>,
     /// `--socketcan BUS=IFACE`s.
     pub socketcan: Vec<(String, String)>,
+    /// `--control` (None: no control port).
+    pub control: Option<String>,
     /// `--quiet`.
     pub quiet: bool,
     /// `--trace`.
@@ -141,6 +150,7 @@ impl Options {
             state_dir: None,
             bitrates: Vec::new(),
             socketcan: Vec::new(),
+            control: None,
             quiet: false,
             trace: None,
             help: false,
@@ -157,12 +167,16 @@ impl Options {
             match name {
                 "-h" | "--help" => o.help = true,
                 "--quiet" => o.quiet = true,
-                "--listen" => {
+                "--listen" | "--control" => {
                     let v = value(name)?;
                     if v.rsplit_once(':').is_none_or(|(_, p)| p.parse::<u16>().is_err()) {
-                        return Err(format!("--listen {v}: expected HOST:PORT"));
+                        return Err(format!("{name} {v}: expected HOST:PORT"));
                     }
-                    o.listen = v;
+                    if name == "--listen" {
+                        o.listen = v;
+                    } else {
+                        o.control = Some(v);
+                    }
                 }
                 "--device" => o.devices.push(parse_device(&value(name)?)?),
                 "--state-dir" => o.state_dir = Some(value(name)?.into()),

@@ -22,6 +22,7 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use od_core::{Bitrate, CanId, Frame, Instant};
 
+use super::control::{self, node_name, Command, Selector};
 use super::decode::{describe, fit, view_line, Known};
 use super::devices::{bench, Registry};
 use super::master::BenchMaster;
@@ -81,6 +82,8 @@ enum Event {
     Wake,
     /// Client `id` is gone.
     Left { id: usize },
+    /// A command of the control port.
+    Control(control::Request),
 }
 
 /// Builds the buses of `opts` and runs until the listener fails. Errors in the options or
@@ -121,6 +124,11 @@ pub fn run(opts: &Options) -> Result<(), String> {
     for hint in rate_hints(&buses) {
         eprintln!("sim: {hint}");
     }
+    // Bound before the socketcand port: once that answers, so does the control port.
+    let control = match &opts.control {
+        Some(addr) => Some(TcpListener::bind(addr).map_err(|e| format!("--control {addr}: {e}"))?),
+        None => None,
+    };
     let listener = TcpListener::bind(&opts.listen).map_err(|e| format!("--listen {}: {e}", opts.listen))?;
     let trace = match &opts.trace {
         Some(p) => Some(BufWriter::new(File::create(p).map_err(|e| format!("--trace {}: {e}", p.display()))?)),
@@ -128,6 +136,9 @@ pub fn run(opts: &Options) -> Result<(), String> {
     };
     if !opts.quiet {
         println!("sim: socketcand on {} (rawmode)", listener.local_addr().map_err(|e| e.to_string())?);
+        if let Some(c) = &control {
+            println!("sim: control port on {}", c.local_addr().map_err(|e| e.to_string())?);
+        }
         for b in &buses {
             println!("  {} at {} kbit/s: {}", b.name, b.rate.kbit(), b.labels.join(", "));
         }
@@ -137,6 +148,10 @@ pub fn run(opts: &Options) -> Result<(), String> {
     for (k, (bus, iface)) in opts.socketcan.iter().enumerate() {
         let b = names.iter().position(|n| n == bus).ok_or(format!("--socketcan {bus}={iface}: no device on {bus}"))?;
         bridge(BRIDGE_IDS + k, b, iface, tx.clone()).map_err(|e| format!("--socketcan {bus}={iface}: {e}"))?;
+    }
+    if let Some(c) = control {
+        let tx = tx.clone();
+        thread::spawn(move || control::serve(c, move |r| tx.send(Event::Control(r)).is_ok()));
     }
     thread::spawn(move || accept(listener, names, tx));
     let master = opts.devices.is_empty().then(|| {
@@ -148,7 +163,18 @@ pub fn run(opts: &Options) -> Result<(), String> {
             .filter(|(_, core)| core.od.pos(0x1200, 1).is_some())
             .map(|(b, core)| (b, core.node_id))
             .collect();
-        BenchMaster::new(&nodes)
+        let master = BenchMaster::new(&nodes);
+        // The bench's display shows the SGH10's position (D-SIM-19).
+        let find = |label: &str| {
+            buses.iter().enumerate().find_map(|(b, bus)| {
+                let i = bus.labels.iter().position(|l| l == label)?;
+                Some((b, bus.segment.core(i).node_id))
+            })
+        };
+        match (find("AP10T"), find("SGH10")) {
+            (Some((b, display)), Some((s, source))) if b == s => master.with_display(b, display, source),
+            _ => master,
+        }
     });
     Sim {
         buses,
@@ -462,6 +488,82 @@ impl Sim {
                 }
                 self.clients.retain(|c| c.id != id)
             }
+            Event::Control(control::Request { command, reply }) => {
+                let answer = match self.control(command) {
+                    Ok(text) if text.is_empty() => "ok".to_string(),
+                    Ok(text) => format!("ok {text}"),
+                    Err(e) => format!("error {e}"),
+                };
+                let _ = reply.send(answer);
+            }
+        }
+    }
+
+    /// The (bus, node) `sel` names: exactly one.
+    fn find(&self, sel: &Selector) -> Result<(usize, usize), String> {
+        let mut found = Vec::new();
+        for (b, bus) in self.buses.iter().enumerate() {
+            for i in 0..bus.segment.len() {
+                if sel.matches(&bus.name, &bus.labels[i], bus.segment.core(i).node_id) {
+                    found.push((b, i));
+                }
+            }
+        }
+        match found.as_slice() {
+            [one] => Ok(*one),
+            [] => Err(format!("no device {sel} (see list)")),
+            more => {
+                let names: Vec<String> = more.iter().map(|&(b, i)| self.node_name(b, i)).collect();
+                Err(format!("{sel} names several devices: {}", names.join(" ")))
+            }
+        }
+    }
+
+    fn node_name(&self, b: usize, i: usize) -> String {
+        let bus = &self.buses[b];
+        node_name(&bus.name, &bus.labels[i], bus.segment.core(i).node_id)
+    }
+
+    /// Carries out a command of the control port: the reply's text after `ok`, or the error.
+    /// What it makes the nodes send goes out at once, ahead of later bus traffic.
+    fn control(&mut self, command: Command) -> Result<String, String> {
+        let now = self.now();
+        match command {
+            Command::List => {
+                let names: Vec<String> = (0..self.buses.len())
+                    .flat_map(|b| (0..self.buses[b].segment.len()).map(move |i| (b, i)))
+                    .map(|(b, i)| self.node_name(b, i))
+                    .collect();
+                Ok(names.join(" "))
+            }
+            Command::Press { device, key } => {
+                let (b, i) = self.find(&device)?;
+                let name = self.node_name(b, i);
+                let station = self.buses[b].segment.station(i);
+                let display = station
+                    .as_any_mut()
+                    .and_then(|a| a.downcast_mut::<crate::ap10t::Display>())
+                    .ok_or(format!("{name} has no keys"))?;
+                // A press and its release at one instant: keys act on the press (D-AP-8).
+                display.press(key, now);
+                display.release(key, now);
+                self.run_nodes(b, now);
+                self.show_panels(b);
+                Ok(String::new())
+            }
+            Command::Screen { device } => {
+                let (b, i) = self.find(&device)?;
+                let name = self.node_name(b, i);
+                self.run_nodes(b, now);
+                self.buses[b].segment.panel(i).ok_or(format!("{name} shows nothing"))
+            }
+            Command::Position { device, raw } => {
+                let (b, i) = self.find(&device)?;
+                let name = self.node_name(b, i);
+                self.buses[b].segment.station(i).set_sensor(raw).map_err(|e| format!("{name}: {e}"))?;
+                self.run_nodes(b, now);
+                Ok(String::new())
+            }
         }
     }
 
@@ -582,6 +684,9 @@ impl Sim {
         let wall = self.epoch + self.start.elapsed();
         let micros = wall.duration_since(UNIX_EPOCH).map(|d| d.as_micros() as u64).unwrap_or(0);
         let msg = sc::frame_message(frame, micros);
+        if let Some(m) = &mut self.master {
+            m.heard(b, frame);
+        }
         let who = match from {
             From::Node => String::new(),
             From::Client(id) => {
