@@ -6,6 +6,7 @@ pub mod bus;
 pub mod eds;
 pub mod encoder;
 pub mod flash;
+pub mod invariants;
 pub mod segment;
 pub mod sim;
 
