@@ -206,6 +206,8 @@ impl<'a> Bytes<'a> {
 pub struct Client {
     table: &'static [Entry],
     toggle: u8,
+    /// The segmented download the client runs: the value it sends.
+    down: Option<([u8; 7], usize)>,
     /// The node-ID the client addresses (the node's active one, read before each action).
     pub node_id: u8,
     /// The node's LSS address (1018h.01..04).
@@ -215,7 +217,7 @@ pub struct Client {
 impl Client {
     /// A client of a node with dictionary `table`.
     pub fn new(table: &'static [Entry]) -> Client {
-        Client { table, toggle: 0, node_id: 1, identity: [0; 4] }
+        Client { table, toggle: 0, down: None, node_id: 1, identity: [0; 4] }
     }
 
     /// Updates what the client knows of the node.
@@ -290,32 +292,48 @@ impl Client {
                 self.toggle ^= 0x10;
                 Action::Frame(self.sdo([0x60 | t, 0, 0, 0, 0, 0, 0, 0]))
             }
-            // Segmented download initiate (size indicated or not) of an entry or 1010h.
+            // Segmented download initiate (size indicated or not) of an entry or 1010h "save",
+            // mostly with the size the value has.
             8 => {
                 let e = self.entry(b);
-                let (index, sub) = if b.u8() % 2 == 0 { (0x1010, b.u8() % 5) } else { (e.index, e.sub) };
-                let size = (b.u8() % 12) as u32;
+                let save = b.u8() % 2 == 0;
+                let (index, sub) = if save { (0x1010, b.u8() % 5) } else { (e.index, e.sub) };
+                let mut value = [0u8; 7];
+                let size = if save {
+                    value[..4].copy_from_slice(b"save");
+                    4
+                } else {
+                    value[..4].copy_from_slice(&self.value(e, b).to_le_bytes());
+                    e.dtype.size().clamp(1, 4)
+                };
+                let size = if b.u8() % 8 == 0 { (b.u8() % 12) as usize } else { size };
+                self.down = Some((value, size));
                 let i = index.to_le_bytes();
-                let s = size.to_le_bytes();
+                let sz = (size as u32).to_le_bytes();
                 let cs = if b.u8() % 4 == 0 { 0x20 } else { 0x21 };
                 self.toggle = 0;
-                Action::Frame(self.sdo([cs, i[0], i[1], sub, s[0], s[1], s[2], s[3]]))
+                Action::Frame(self.sdo([cs, i[0], i[1], sub, sz[0], sz[1], sz[2], sz[3]]))
             }
-            // Download segment: "save" or any bytes, last or not, right toggle mostly.
+            // Download segment: the client's value as the last segment, or any bytes, last or
+            // not; the right toggle mostly.
             9 | 10 => {
                 let t = if b.u8() % 8 == 0 { self.toggle ^ 0x10 } else { self.toggle };
                 self.toggle ^= 0x10;
                 let flags = b.u8();
-                let n = (flags % 8) as usize;
-                let last = flags & 0x80 != 0;
                 let mut d = [0u8; 8];
-                if flags & 0x40 != 0 {
-                    d[1..5].copy_from_slice(b"save");
-                } else {
-                    for x in d[1..8].iter_mut() {
-                        *x = b.u8();
+                let (n, last) = match self.down.take() {
+                    Some((v, size)) if flags & 0x40 == 0 => {
+                        let n = if flags & 0x20 == 0 { size.min(7) } else { (flags % 8) as usize };
+                        d[1..8].copy_from_slice(&v);
+                        (n, true)
                     }
-                }
+                    _ => {
+                        for x in d[1..8].iter_mut() {
+                            *x = b.u8();
+                        }
+                        ((flags % 8) as usize, flags & 0x80 != 0)
+                    }
+                };
                 d[0] = t | (((7 - n.min(7)) as u8) << 1) | last as u8;
                 Action::Frame(self.sdo(d))
             }
@@ -527,6 +545,7 @@ enum Expected {
 /// A node of one kind, its parameter flash, a virtual clock and the checker's model.
 pub struct Rig {
     kind: Kind,
+    wrap: Wrap,
     node: Box<dyn Subject>,
     flash: ParamFlash<RamFlash>,
     now: Instant,
@@ -540,6 +559,10 @@ pub struct Rig {
     /// Statistics.
     pub stats: Stats,
 }
+
+/// Wraps every node the rig boots (the checker's own tests wrap a node in a faulty shell to
+/// see that each invariant catches its fault).
+pub type Wrap = fn(Box<dyn Subject>) -> Box<dyn Subject>;
 
 /// A broken invariant: what, after which input.
 #[derive(Clone, Debug)]
@@ -626,6 +649,11 @@ impl Rig {
     /// A node of `kind` on a flash that the production line programmed with `node_id` (as LSS
     /// stores it; `None`: blank flash, the default node-ID), powered on.
     pub fn new(kind: Kind, node_id: Option<u8>) -> Rig {
+        Rig::wrapped(kind, node_id, |n| n)
+    }
+
+    /// [`Rig::new`] with every node wrapped by `wrap`.
+    pub fn wrapped(kind: Kind, node_id: Option<u8>, wrap: Wrap) -> Rig {
         let table = kind.table();
         let mut flash = ParamFlash::new(RamFlash::new(REGION.pages as usize), REGION, identity(table));
         if let Some(id) = node_id {
@@ -636,9 +664,10 @@ impl Rig {
             }
         }
         let loaded = flash.load();
-        let node = kind.boot(&loaded);
+        let node = wrap(kind.boot(&loaded));
         let mut rig = Rig {
             kind,
+            wrap,
             node,
             flash,
             now: Instant::ZERO,
@@ -787,7 +816,7 @@ impl Rig {
         self.flash.flash().power_on();
         let loaded = self.flash.load();
         ensure!(loaded != Loaded::Invalid, "the flash holds no valid image after saves only");
-        self.node = self.kind.boot(&loaded);
+        self.node = (self.wrap)(self.kind.boot(&loaded));
         self.stores.clear();
         self.sdo = SdoModel::Idle;
         self.deferred = false;
@@ -1025,6 +1054,9 @@ impl Rig {
                     ensure!(ccs == 4 || stored, "SDO request {req:02X?} unanswered");
                     if stored {
                         self.deferred = true;
+                        if ccs == 0 {
+                            self.stats.segmented_done += 1;
+                        }
                     }
                     self.sdo = SdoModel::Idle;
                     return Ok(());
@@ -1091,7 +1123,9 @@ impl Rig {
                 if let Some(a) = answer {
                     ensure!(*origin == StoreOrigin::Sdo && self.deferred, "SDO answer {a:02X?} to no pending save");
                     ensure!(
-                        a == [0x60, 0x10, 0x10, a[3], 0, 0, 0, 0] || (a[0] == 0x80 && a[1..3] == [0x10, 0x10]),
+                        a == [0x60, 0x10, 0x10, a[3], 0, 0, 0, 0]
+                            || (a[0] & 0xEF == 0x20 && a[1..] == [0; 7])
+                            || (a[0] == 0x80 && a[1..3] == [0x10, 0x10]),
                         "answer to a save: {a:02X?}"
                     );
                     self.deferred = false;
