@@ -788,7 +788,12 @@ impl Rig {
             let id = core.node_id;
             self.apply(Action::Frame(Frame::std(0, &[0x81, id])))?;
             self.apply(Action::Advance(0))?;
-            ensure!(self.node.core().nmt == NmtState::PreOperational, "no boot-up after reset node");
+            let core = self.node.core();
+            if !core.configured() {
+                // The reset activated a pending node-ID FFh (LSS "unconfigured"): LSS only.
+                return self.power_cycle();
+            }
+            ensure!(core.nmt == NmtState::PreOperational, "no boot-up after reset node");
             let answer = self.sdo_answer(crate::encoder::upload_request(0x1000, 0))?;
             let want = self.node.core().od.value(0x1000, 0).unwrap_or(0).to_le_bytes();
             ensure!(
@@ -1153,26 +1158,31 @@ impl Rig {
 
     /// Every value within its type and declared limits.
     fn check_values(&self) -> Result<(), Violation> {
-        let od = &self.node.core().od;
-        for (pos, e) in od.table().iter().enumerate() {
-            let v = od.get(pos);
-            let fits = match e.dtype {
-                DataType::Boolean => v <= 1,
-                DataType::Integer8 | DataType::Unsigned8 => v <= 0xFF,
-                DataType::Integer16 | DataType::Unsigned16 => v <= 0xFFFF,
-                DataType::VisibleString => v == 0,
-                _ => true,
-            };
-            ensure!(fits, "{:04X}h.{:02X} = {v:#X} does not fit {:?}", e.index, e.sub, e.dtype);
-            // D-LSS-5: LSS may set the pending node-ID to FFh ("unconfigured").
-            let unconfigured = e.hook == Hook::Core(od_core::od::CoreHook::PendingNodeId) && v == 0xFF;
-            if let Some((lo, hi)) = e.limits().filter(|_| !unconfigured) {
-                let x = e.dtype.to_i64(v);
-                ensure!(lo <= x && x <= hi, "{:04X}h.{:02X} = {x} outside {lo}..={hi}", e.index, e.sub);
-            }
-        }
-        Ok(())
+        check_values(self.node.core())
     }
+}
+
+/// Every value of `core`'s dictionary within its type and declared limits.
+pub fn check_values(core: &Core) -> Result<(), Violation> {
+    let od = &core.od;
+    for (pos, e) in od.table().iter().enumerate() {
+        let v = od.get(pos);
+        let fits = match e.dtype {
+            DataType::Boolean => v <= 1,
+            DataType::Integer8 | DataType::Unsigned8 => v <= 0xFF,
+            DataType::Integer16 | DataType::Unsigned16 => v <= 0xFFFF,
+            DataType::VisibleString => v == 0,
+            _ => true,
+        };
+        ensure!(fits, "{:04X}h.{:02X} = {v:#X} does not fit {:?}", e.index, e.sub, e.dtype);
+        // D-LSS-5: LSS may set the pending node-ID to FFh ("unconfigured").
+        let unconfigured = e.hook == Hook::Core(od_core::od::CoreHook::PendingNodeId) && v == 0xFF;
+        if let Some((lo, hi)) = e.limits().filter(|_| !unconfigured) {
+            let x = e.dtype.to_i64(v);
+            ensure!(lo <= x && x <= hi, "{:04X}h.{:02X} = {x} outside {lo}..={hi}", e.index, e.sub);
+        }
+    }
+    Ok(())
 }
 
 /// One call into the node.
@@ -1189,13 +1199,83 @@ enum Input {
 /// with the violation: the body of every fuzz target and of the proptest.
 pub fn run_case(data: &[u8]) -> Stats {
     let kind = KINDS[data.first().copied().unwrap_or(0) as usize % KINDS.len()];
-    let node_id = match data.get(1).copied().unwrap_or(0) {
+    run_kind(kind, data.get(1..).unwrap_or(&[]))
+}
+
+/// Runs `data` against a node of `kind`: `data[0]` picks the node-ID the flash holds (0: a
+/// blank flash), the rest are actions. Panics with the violation.
+pub fn run_kind(kind: Kind, data: &[u8]) -> Stats {
+    let node_id = match data.first().copied().unwrap_or(0) {
         0 => None,
         b => Some(1 + b % 127),
     };
     let mut rig = Rig::new(kind, node_id);
-    if let Err(v) = rig.run_bytes(data.get(2..).unwrap_or(&[])) {
+    if let Err(v) = rig.run_bytes(data.get(1..).unwrap_or(&[])) {
         panic!("{}: {v}", kind.name());
     }
     rig.stats
+}
+
+/// The storage loader fed any flash content: `data[0]` picks the kind, the rest is what the
+/// parameter pages hold. Loading never panics; a node boots from whatever it found with every
+/// value within its limits; a save over it works (unless the pages hold an image it cannot
+/// verify) and the next power-on finds exactly the saved values. Panics with the violation.
+pub fn run_flash(data: &[u8]) {
+    let kind = KINDS[data.first().copied().unwrap_or(0) as usize % KINDS.len()];
+    let mut bytes = data.get(1..).unwrap_or(&[]).to_vec();
+    bytes.truncate(REGION.pages as usize * crate::flash::PAGE);
+    let table = kind.table();
+    let mut flash = ParamFlash::new(RamFlash::from_bytes(bytes), REGION, identity(table));
+    let loaded = flash.load();
+    let node = kind.boot(&loaded);
+    if let Err(v) = check_values(node.core()) {
+        panic!("{}: booted from {loaded:?}: {v}", kind.name());
+    }
+    if flash.save(node.core(), GroupMask::ALL).is_err() {
+        return;
+    }
+    let again = flash.load();
+    let Loaded::Image(_) = again else {
+        panic!("{}: after a save the flash holds {again:?}", kind.name());
+    };
+    let second = kind.boot(&again);
+    for (pos, e) in table.iter().enumerate() {
+        if selected(e, GroupMask::ALL) {
+            let (a, b) = (node.core().od.get(pos), second.core().od.get(pos));
+            assert!(a == b, "{}: {:04X}h.{:02X} saved {a:#X}, loaded {b:#X}", kind.name(), e.index, e.sub);
+        }
+    }
+}
+
+/// The socketcand message parser fed any bytes: splitting keeps at most an incomplete message
+/// of bounded size, every parsed `send` is a valid frame that round-trips through the client's
+/// formatting, and every error answer is one well-formed message. Panics with the violation.
+pub fn run_socketcand(data: &[u8]) {
+    use crate::sim::socketcand::{error_message, frame_message, parse, send_message, split_messages, Request};
+    let mut buf = String::new();
+    for chunk in data.split(|&b| b == 0) {
+        buf.push_str(&String::from_utf8_lossy(chunk));
+        for msg in split_messages(&mut buf) {
+            let text = match msg.map(|m| parse(&m)) {
+                Ok(Ok(Request::Send(f))) => {
+                    assert!(f.len <= 8 && !f.rtr, "parsed {f:?}");
+                    match f.id {
+                        CanId::Std(id) => assert!(id <= 0x7FF, "{f:?}"),
+                        CanId::Ext(id) => assert!(id <= 0x1FFF_FFFF, "{f:?}"),
+                    }
+                    let again = parse(&send_message(&f));
+                    assert_eq!(again, Ok(Request::Send(f)), "round trip of {f:?}");
+                    frame_message(&f, u64::MAX)
+                }
+                Ok(Ok(_)) => continue,
+                Ok(Err(e)) | Err(e) => error_message(&e),
+            };
+            assert!(
+                text.starts_with('<') && text.ends_with('>') && text.matches(['<', '>']).count() == 2,
+                "answer {text:?}"
+            );
+        }
+        assert!(buf.is_empty() || (buf.starts_with('<') && !buf.contains('>')), "rest {buf:?}");
+        assert!(buf.len() <= 256, "rest of {} bytes", buf.len());
+    }
 }
