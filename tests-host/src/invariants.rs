@@ -398,7 +398,8 @@ impl Client {
                 let raw = b.u32();
                 let len = b.u8() % 9;
                 let d = [b.u8(), b.u8(), b.u8(), b.u8(), b.u8(), b.u8(), b.u8(), b.u8()];
-                let can = if raw & 1 << 31 != 0 { CanId::Ext(raw & 0x1FFF_FFFF) } else { CanId::Std((raw & 0x7FF) as u16) };
+                let can =
+                    if raw & 1 << 31 != 0 { CanId::Ext(raw & 0x1FFF_FFFF) } else { CanId::Std((raw & 0x7FF) as u16) };
                 if raw & 1 << 30 != 0 {
                     Action::Frame(Frame::remote(can, len))
                 } else {
@@ -524,7 +525,10 @@ pub struct Stats {
 enum SdoModel {
     Idle,
     /// A transfer is open; the client's last request came at `since`.
-    Open { since: Instant, download: Option<(u16, u8)> },
+    Open {
+        since: Instant,
+        download: Option<(u16, u8)>,
+    },
 }
 
 /// Who asked for a pending store.
@@ -585,10 +589,8 @@ macro_rules! ensure {
 /// Is `e` a user-stored entry (1010h groups) and does a store of `mask` write it?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
     let user = matches!(e.group, Group::Comm | Group::App | Group::Manuf);
-    let pending = matches!(
-        e.hook,
-        Hook::Core(od_core::od::CoreHook::PendingNodeId | od_core::od::CoreHook::PendingBitrate)
-    );
+    let pending =
+        matches!(e.hook, Hook::Core(od_core::od::CoreHook::PendingNodeId | od_core::od::CoreHook::PendingBitrate));
     (user && mask.contains(e.group)) || (mask.0 & GroupMask::LSS.0 != 0 && pending)
 }
 
@@ -682,6 +684,11 @@ impl Rig {
         rig.expect_current(GroupMask(GroupMask::ALL.0 | GroupMask::LSS.0));
         rig.client.observe(rig.node.core());
         rig
+    }
+
+    /// The node, taken out of the rig.
+    pub fn into_node(self) -> Box<dyn Subject> {
+        self.node
     }
 
     /// The device kind.
@@ -809,7 +816,8 @@ impl Rig {
         let id = self.node.core().node_id as u16;
         let f = Frame::std(0x600 + id, &req);
         let sent = self.input_collect(Input::Frame(f))?;
-        let a = sent.iter().find(|f| f.id == CanId::Std(0x580 + id)).ok_or_else(|| Violation("no SDO answer".into()))?;
+        let a =
+            sent.iter().find(|f| f.id == CanId::Std(0x580 + id)).ok_or_else(|| Violation("no SDO answer".into()))?;
         let mut out = [0u8; 8];
         out.copy_from_slice(a.payload());
         Ok(out)
@@ -965,7 +973,12 @@ impl Rig {
         }
         let reset = after.nmt == NmtState::Initialising && before.nmt != NmtState::Initialising
             || sent.iter().any(|f| f.id == CanId::Std(0x700 + after.node_id as u16) && f.payload() == [0]);
-        ensure!(after.node_id == before.node_id || reset, "node-ID {} -> {} without a reset", before.node_id, after.node_id);
+        ensure!(
+            after.node_id == before.node_id || reset,
+            "node-ID {} -> {} without a reset",
+            before.node_id,
+            after.node_id
+        );
         // LSS.
         let lss_after = core.lss.state();
         ensure!(lss_after == lss_before || lss_frame || reset, "LSS {lss_before:?} -> {lss_after:?} on {input:?}");
@@ -1193,6 +1206,12 @@ enum Input {
     StoreDone { mask: GroupMask, origin: StoreOrigin, ok: bool },
     Bus(BusEvent),
     Sample(Result<u32, SensorFault>),
+}
+
+/// A node of `kind` powered on from a flash the production line programmed with `node_id`
+/// (as LSS stores it), before its first poll.
+pub fn boot_with_id(kind: Kind, node_id: u8) -> Box<dyn Subject> {
+    Rig::new(kind, Some(node_id)).into_node()
 }
 
 /// Runs `data` against a node of `kinds[data[0] % len]` (node-ID from `data[1]`) and panics
