@@ -193,6 +193,10 @@ impl<'a> Bytes<'a> {
         self.pos += 1;
         b
     }
+    /// True once in `n` (by the next byte).
+    fn one_in(&mut self, n: u8) -> bool {
+        self.u8().is_multiple_of(n)
+    }
     fn u16(&mut self) -> u16 {
         u16::from_le_bytes([self.u8(), self.u8()])
     }
@@ -272,9 +276,9 @@ impl Client {
                 let e = self.entry(b);
                 let v = self.value(e, b);
                 let size = e.dtype.size().clamp(1, 4);
-                let size = if b.u8() % 8 == 0 { (b.u8() % 4 + 1) as usize } else { size };
+                let size = if b.one_in(8) { (b.u8() % 4 + 1) as usize } else { size };
                 let mut req = crate::encoder::download_request(e.index, e.sub, size, v);
-                if b.u8() % 8 == 0 {
+                if b.one_in(8) {
                     req[0] = 0x22; // no size indicated
                 }
                 self.toggle = 0;
@@ -288,7 +292,7 @@ impl Client {
             }
             // Upload segment with the expected toggle (sometimes the wrong one).
             7 => {
-                let t = if b.u8() % 8 == 0 { self.toggle ^ 0x10 } else { self.toggle };
+                let t = if b.one_in(8) { self.toggle ^ 0x10 } else { self.toggle };
                 self.toggle ^= 0x10;
                 Action::Frame(self.sdo([0x60 | t, 0, 0, 0, 0, 0, 0, 0]))
             }
@@ -296,7 +300,7 @@ impl Client {
             // mostly with the size the value has.
             8 => {
                 let e = self.entry(b);
-                let save = b.u8() % 2 == 0;
+                let save = b.one_in(2);
                 let (index, sub) = if save { (0x1010, b.u8() % 5) } else { (e.index, e.sub) };
                 let mut value = [0u8; 7];
                 let size = if save {
@@ -306,18 +310,18 @@ impl Client {
                     value[..4].copy_from_slice(&self.value(e, b).to_le_bytes());
                     e.dtype.size().clamp(1, 4)
                 };
-                let size = if b.u8() % 8 == 0 { (b.u8() % 12) as usize } else { size };
+                let size = if b.one_in(8) { (b.u8() % 12) as usize } else { size };
                 self.down = Some((value, size));
                 let i = index.to_le_bytes();
                 let sz = (size as u32).to_le_bytes();
-                let cs = if b.u8() % 4 == 0 { 0x20 } else { 0x21 };
+                let cs = if b.one_in(4) { 0x20 } else { 0x21 };
                 self.toggle = 0;
                 Action::Frame(self.sdo([cs, i[0], i[1], sub, sz[0], sz[1], sz[2], sz[3]]))
             }
             // Download segment: the client's value as the last segment, or any bytes, last or
             // not; the right toggle mostly.
             9 | 10 => {
-                let t = if b.u8() % 8 == 0 { self.toggle ^ 0x10 } else { self.toggle };
+                let t = if b.one_in(8) { self.toggle ^ 0x10 } else { self.toggle };
                 self.toggle ^= 0x10;
                 let flags = b.u8();
                 let mut d = [0u8; 8];
@@ -339,7 +343,7 @@ impl Client {
             }
             // 1010h "save" / 1011h "load" on any sub-index (sometimes a wrong signature).
             11 => {
-                let index = if b.u8() % 3 == 0 { 0x1011 } else { 0x1010 };
+                let index = if b.one_in(3) { 0x1011 } else { 0x1010 };
                 let sig = match (index, b.u8() % 6) {
                     (_, 0) => b.u32(),
                     (0x1010, _) => u32::from_le_bytes(*b"save"),
@@ -353,22 +357,22 @@ impl Client {
                 for x in d.iter_mut() {
                     *x = b.u8();
                 }
-                if b.u8() % 2 == 0 {
+                if b.one_in(2) {
                     d[0] = 0x80;
                 }
-                let len = if b.u8() % 8 == 0 { b.u8() % 9 } else { 8 };
+                let len = if b.one_in(8) { b.u8() % 9 } else { 8 };
                 Action::Frame(Frame::std(0x600 + id, &d[..len as usize]))
             }
             // NMT to this node, to all, to another, or malformed.
             13 | 14 => {
                 let cs = [0x01, 0x02, 0x80, 0x81, 0x82, 0x01, 0x80, 0x82][b.u8() as usize % 8];
-                let cs = if b.u8() % 16 == 0 { b.u8() } else { cs };
+                let cs = if b.one_in(16) { b.u8() } else { cs };
                 let target = match b.u8() % 4 {
                     0 => 0,
                     1 | 2 => self.node_id,
                     _ => b.u8(),
                 };
-                let len = if b.u8() % 16 == 0 { b.u8() % 9 } else { 2 };
+                let len = if b.one_in(16) { b.u8() % 9 } else { 2 };
                 let d = [cs, target, b.u8(), 0, 0, 0, 0, 0];
                 Action::Frame(Frame::std(0, &d[..len as usize]))
             }
@@ -376,7 +380,7 @@ impl Client {
             15..=17 => Action::Frame(self.lss(b)),
             // SYNC, on its default identifier or a neighbour, with or without a counter.
             18 => {
-                let id = if b.u8() % 4 == 0 { 0x80 + (b.u8() % 3) as u16 - 1 } else { 0x80 };
+                let id = if b.one_in(4) { 0x80 + (b.u8() % 3) as u16 - 1 } else { 0x80 };
                 let len = b.u8() % 3;
                 Action::Frame(Frame::std(id, &[b.u8(), b.u8()][..len as usize]))
             }
@@ -414,7 +418,7 @@ impl Client {
                 _ => SDO_TIMEOUT_US + b.u8() as u64 * 1000,
             }),
             25 => Action::LatePoll(b.u16() as u64 * 100),
-            26 | 27 => Action::StoreDone(b.u8() % 4 != 0),
+            26 | 27 => Action::StoreDone(!b.one_in(4)),
             28 => Action::Bus(match b.u8() % 8 {
                 0 => BusEvent::ErrorPassive,
                 1 => BusEvent::ErrorActive,
@@ -441,12 +445,12 @@ impl Client {
     fn lss(&self, b: &mut Bytes) -> Frame {
         let mut d = [0u8; 8];
         let part = b.u8() as usize % 4;
-        let right = b.u8() % 8 != 0;
+        let right = !b.one_in(8);
         let value = if right { self.identity[part] } else { b.u32() };
         match b.u8() % 12 {
             0 => {
                 d[0] = 0x04;
-                d[1] = if b.u8() % 8 == 0 { b.u8() } else { b.u8() % 2 };
+                d[1] = if b.one_in(8) { b.u8() } else { b.u8() % 2 };
             }
             // The four switch-state-selective frames with the node's address, in one go
             // would be four actions; one of them at a time, in order when the fuzzer repeats.
@@ -481,7 +485,7 @@ impl Client {
             10 => {
                 // Fastscan: the reset request or one step comparing some bits.
                 d[0] = 0x51;
-                let bits = if b.u8() % 3 == 0 { 0x80 } else { b.u8() % 32 };
+                let bits = if b.one_in(3) { 0x80 } else { b.u8() % 32 };
                 let mask = if bits >= 32 { 0 } else { u32::MAX << bits };
                 d[1..5].copy_from_slice(&(value & mask).to_le_bytes());
                 d[5] = bits;

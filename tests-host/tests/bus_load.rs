@@ -62,7 +62,10 @@ impl Others {
             13 => Frame::std(0, &[0x01, (ID + 1) as u8]),
             14 => Frame::std(0x600 + ID + 1, &upload_request(0x1000, 0)),
             15 => Frame::std(0x700 + ID - 1, &[0x05]),
-            i => Frame::std(near[i as usize % near.len()], &data[..if k % 8 == 0 { (k % 9) as usize } else { 8 }]),
+            i => Frame::std(
+                near[i as usize % near.len()],
+                &data[..if k.is_multiple_of(8) { (k % 9) as usize } else { 8 }],
+            ),
         }
     }
 }
