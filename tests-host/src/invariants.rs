@@ -13,7 +13,7 @@
 //! - NMT and LSS states change only on the inputs that may change them; the node-ID stays
 //!   1..=127 or FFh; a poll never leaves its own deadline due.
 //!
-//! Inputs come from [`Action::decode`], which turns any bytes into actions biased toward the
+//! Inputs come from [`Client::decode`], which turns any bytes into actions biased toward the
 //! node's own identifiers and valid command bytes (SDO segmented transfers, LSS configuration,
 //! NMT resets, PDO configuration writes, saves), so that random bytes reach deep states. The
 //! stable proptest (`tests/fuzz_props.rs`) and the cargo-fuzz targets (`fuzz/`) share it.

@@ -434,3 +434,23 @@ fn a_write_after_an_abandoned_download_works() {
         d.answers_normally();
     }
 }
+
+/// Receive overruns (frames lost because the firmware's receive FIFO was full, e.g. behind a
+/// long flash erase): none of the manuals' EMCY tables has a code for them, so the node raises
+/// none; it changes no state and answers normally.
+#[test]
+fn receive_overruns_change_nothing() {
+    for mut d in duts() {
+        let before: Vec<u32> = (0..d.bus.station(0).core().od.table().len())
+            .map(|p| d.bus.station(0).core().od.get(p))
+            .collect();
+        for _ in 0..1000 {
+            d.sensor.bus_event(BusEvent::RxOverrun);
+        }
+        d.bus.advance(0);
+        assert_eq!(d.frames(), [], "{}: no EMCY for an overrun", d.name);
+        let after: Vec<u32> = (0..before.len()).map(|p| d.bus.station(0).core().od.get(p)).collect();
+        assert_eq!(before, after, "{}: the dictionary is untouched", d.name);
+        d.answers_normally();
+    }
+}
