@@ -212,6 +212,8 @@ pub struct Client {
     toggle: u8,
     /// The segmented download the client runs: the value it sends.
     down: Option<([u8; 7], usize)>,
+    /// The rest of a multi-frame script (a PDO remap, a full LSS configuration).
+    script: std::collections::VecDeque<Action>,
     /// The node-ID the client addresses (the node's active one, read before each action).
     pub node_id: u8,
     /// The node's LSS address (1018h.01..04).
@@ -221,7 +223,7 @@ pub struct Client {
 impl Client {
     /// A client of a node with dictionary `table`.
     pub fn new(table: &'static [Entry]) -> Client {
-        Client { table, toggle: 0, down: None, node_id: 1, identity: [0; 4] }
+        Client { table, toggle: 0, down: None, script: Default::default(), node_id: 1, identity: [0; 4] }
     }
 
     /// Updates what the client knows of the node.
@@ -267,6 +269,10 @@ impl Client {
     pub fn decode(&mut self, b: &mut Bytes) -> Option<Action> {
         if b.is_empty() {
             return None;
+        }
+        // A script runs on unless the fuzzer interrupts it (one byte in eight).
+        if !self.script.is_empty() && !b.one_in(8) {
+            return self.script.pop_front();
         }
         let id = self.node_id as u16;
         let op = b.u8();
@@ -438,8 +444,69 @@ impl Client {
                 3 => Ok(b.u32()),
                 _ => Ok(b.u16() as u32 * (1 + b.u8() as u32 % 64)),
             }),
-            _ => Action::PowerCycle,
+            _ if b.one_in(2) => Action::PowerCycle,
+            _ => {
+                self.script = self.script(b);
+                self.script.pop_front()?
+            }
         })
+    }
+
+    /// A multi-frame sequence a master runs: a TPDO remapped to another mappable entry and
+    /// started, a full LSS configuration with the node's address (selective switch, node-ID,
+    /// bit timing, store, back to waiting, reset), or a segmented 1010h save.
+    fn script(&self, b: &mut Bytes) -> std::collections::VecDeque<Action> {
+        let id = self.node_id as u32;
+        let sdo = |d: [u8; 8]| Action::Frame(self.sdo(d));
+        let write = |i: u16, s: u8, n: usize, v: u32| sdo(crate::encoder::download_request(i, s, n, v));
+        let lss = |d: [u8; 8]| Action::Frame(Frame::std(0x7E5, &d));
+        let mut out = std::collections::VecDeque::new();
+        match b.u8() % 3 {
+            0 => {
+                let n = (b.u8() % 2) as u16;
+                let mappable: Vec<&Entry> = self.table.iter().filter(|e| e.pdo).collect();
+                let e = mappable.get(b.u8() as usize % mappable.len().max(1)).copied();
+                let map = e.map_or(0, |e| (e.index as u32) << 16 | (e.sub as u32) << 8 | e.dtype.bits() as u32);
+                let cob = 0x180 + 0x100 * n as u32 + id;
+                out.extend([
+                    write(0x1800 + n, 1, 4, cob | 0x8000_0000),
+                    write(0x1A00 + n, 0, 1, 0),
+                    write(0x1A00 + n, 1, 4, map),
+                    write(0x1A00 + n, 0, 1, 1),
+                    write(0x1800 + n, 2, 1, [0x01, 0xFE, 0xFF, 0x05][b.u8() as usize % 4]),
+                    write(0x1800 + n, 1, 4, cob),
+                    Action::Frame(Frame::std(0, &[0x01, self.node_id])),
+                    Action::Advance(20_000),
+                    Action::Frame(Frame::std(0x80, &[])),
+                ]);
+            }
+            1 => {
+                for (k, v) in self.identity.iter().enumerate() {
+                    let v = v.to_le_bytes();
+                    out.push_back(lss([0x40 + k as u8, v[0], v[1], v[2], v[3], 0, 0, 0]));
+                }
+                out.extend([
+                    lss([0x11, 1 + b.u8() % 127, 0, 0, 0, 0, 0, 0]),
+                    lss([0x13, 0, b.u8() % 9, 0, 0, 0, 0, 0]),
+                    lss([0x17, 0, 0, 0, 0, 0, 0, 0]),
+                    Action::StoreDone(true),
+                    lss([0x04, 0, 0, 0, 0, 0, 0, 0]),
+                    Action::Frame(Frame::std(0, &[0x82, 0])),
+                    Action::Advance(1000),
+                ]);
+            }
+            _ => {
+                let sub = 1 + b.u8() % 4;
+                out.extend([
+                    sdo([0x21, 0x10, 0x10, sub, 4, 0, 0, 0]),
+                    sdo([0x00 | (3 << 1) | 1, b's', b'a', b'v', b'e', 0, 0, 0]),
+                    Action::StoreDone(true),
+                    Action::Frame(Frame::std(0, &[0x81, self.node_id])),
+                    Action::Advance(1000),
+                ]);
+            }
+        }
+        out
     }
 
     fn lss(&self, b: &mut Bytes) -> Frame {
@@ -975,7 +1042,9 @@ impl Rig {
             }
             _ => ensure!(after.nmt == before.nmt, "NMT {:?} -> {:?} on a non-NMT input", before.nmt, after.nmt),
         }
-        let reset = after.nmt == NmtState::Initialising && before.nmt != NmtState::Initialising
+        // LSS switch to waiting after configure node-ID resets an unconfigured node's
+        // communication (CiA 305): INITIALISATION before and after.
+        let reset = after.nmt == NmtState::Initialising && (before.nmt != NmtState::Initialising || lss_frame)
             || sent.iter().any(|f| f.id == CanId::Std(0x700 + after.node_id as u16) && f.payload() == [0]);
         ensure!(
             after.node_id == before.node_id || reset,

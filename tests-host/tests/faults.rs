@@ -441,9 +441,8 @@ fn a_write_after_an_abandoned_download_works() {
 #[test]
 fn receive_overruns_change_nothing() {
     for mut d in duts() {
-        let before: Vec<u32> = (0..d.bus.station(0).core().od.table().len())
-            .map(|p| d.bus.station(0).core().od.get(p))
-            .collect();
+        let before: Vec<u32> =
+            (0..d.bus.station(0).core().od.table().len()).map(|p| d.bus.station(0).core().od.get(p)).collect();
         for _ in 0..1000 {
             d.sensor.bus_event(BusEvent::RxOverrun);
         }
