@@ -499,7 +499,7 @@ impl Client {
                 let sub = 1 + b.u8() % 4;
                 out.extend([
                     sdo([0x21, 0x10, 0x10, sub, 4, 0, 0, 0]),
-                    sdo([0x00 | (3 << 1) | 1, b's', b'a', b'v', b'e', 0, 0, 0]),
+                    sdo([0x07, b's', b'a', b'v', b'e', 0, 0, 0]), // last segment, 4 bytes
                     Action::StoreDone(true),
                     Action::Frame(Frame::std(0, &[0x81, self.node_id])),
                     Action::Advance(1000),
