@@ -21,6 +21,15 @@
 #       queues 20000 sensor frames (turns 1, angle 4096, no error, no warning) in the
 #       DummySPISlave `sysbus.spi1.sensor` of machine "sgh10". The firmware reads one frame
 #       per sample; once the queue is empty the sensor answers 00h ("no sensor").
+#   lss_fastscan "canSgh50" 0x20
+#       an LSS master on the hub (CiA 305): finds every node without node-ID by LSS Fastscan,
+#       gives the first node-ID 20h, the next 21h ..., and switches it back to LSS waiting, so
+#       that it boots up with that node-ID and drops out of the next scan. It runs with the
+#       emulation, one request every 10 ms of virtual time (a third argument changes that),
+#       and returns at once; each find is logged at Info level as
+#           LSS fastscan canSgh50: found serial 1A2B3C4D (vendor 00000195, product ...,
+#           revision ...), node-ID 32
+#       and the end as "LSS fastscan canSgh50: done, 2 found".
 #
 # What it relies on, all in renode master 06854d4d / renode-infrastructure 0c7d0762:
 # - `externals` (scripts/monitor.py) to find a hub by name;
@@ -31,10 +40,14 @@
 #   attaches to a hub; its SendFrame hands a frame to the hub (src/Emulator/Main/Testing/
 #   CANTester.cs). It exists in Renode builds from 2026-06-19 on;
 # - Mocks.DummySPISlave.EnqueueValue (src/Emulator/Peripherals/Peripherals/Mocks/
-#   DummySPISlave.cs).
+#   DummySPISlave.cs);
+# - TimeSourceBase.ExecuteInSyncedState(action, TimeStamp) on the emulation's master time
+#   source (src/Emulator/Main/Time/TimeSourceBase.cs), which runs an action at a virtual time
+#   while every machine is synchronised: CANTester schedules its ISO-TP frames the same way.
 #
-# The pure helpers (parse_hex, format_frame, crc8, sensor_frame) use no .NET type, so they can
-# be checked with any Python.
+# The pure helpers (parse_hex, format_frame, crc8, sensor_frame, the Fastscan state machine)
+# use no .NET type, so they can be checked with any Python (tests-host/py/
+# test_renode_helpers.py).
 
 
 def parse_hex(text):
@@ -81,6 +94,116 @@ def sensor_frame(turns, angle, error=False, warning=False):
     frame = [(turns >> 8) & 0xFF, turns & 0xFF, (word >> 8) & 0xFF, word & 0xFF]
     frame.append(crc8(frame))
     return frame
+
+
+LSS_MASTER_ID = 0x7E5
+LSS_SLAVE_ID = 0x7E4
+LSS_FASTSCAN = 0x51
+LSS_IDENTIFY_SLAVE = 0x4F
+LSS_CONFIGURE_NODE_ID = 0x11
+LSS_SWITCH_GLOBAL = 0x04
+# Fastscan's BitChecked value that restarts every non-configured slave's scan (LSSPos = vendor).
+FASTSCAN_RESTART = 0x80
+
+
+def fastscan_request(id_number, bit_checked, sub, next_sub):
+    """The 8 bytes of an LSS Fastscan request (CiA 305): 51h, IDNumber (LSB first),
+    BitChecked, LSSSub, LSSNext."""
+    return [LSS_FASTSCAN, id_number & 0xFF, (id_number >> 8) & 0xFF, (id_number >> 16) & 0xFF,
+            (id_number >> 24) & 0xFF, bit_checked, sub, next_sub]
+
+
+class Fastscan(object):
+    """An LSS master that finds every non-configured slave by Fastscan (CiA 305) and gives each
+    a node-ID, as a state machine without I/O: `request()` is the next frame for 7E5h (None
+    once finished), `answered(replies)` takes the 7E4h payloads that came back for it.
+
+    One scan: a restart (BitChecked 80h) that any non-configured slave confirms; then for each
+    part of the LSS address (vendor, product, revision, serial) the bits from 31 down to 0,
+    each asked as 0 and taken as 1 when no slave confirms; then the part confirmed with
+    BitChecked 0 and LSSNext the next part (after the serial LSSNext 0 < LSSSub, so the one slave
+    whose address that is enters LSS configuration). The master configures its node-ID and
+    switches every slave to LSS waiting: the slave boots up with the node-ID, is configured,
+    and the next scan's restart finds the others. A restart nobody confirms ends the search."""
+
+    def __init__(self, first_node_id=0x20, last_node_id=0x7F):
+        self.next_node_id = int(first_node_id)
+        self.last_node_id = int(last_node_id)
+        self.found = []
+        self.error = None
+        self.done = False
+        self._scan()
+
+    def _scan(self):
+        self._step = "restart"
+        self._address = [0, 0, 0, 0]
+        self._sub = 0
+        self._bit = 31
+
+    def request(self):
+        if self.done:
+            return None
+        if self._step == "restart":
+            return fastscan_request(0, FASTSCAN_RESTART, 0, 0)
+        if self._step == "bit":
+            return fastscan_request(self._address[self._sub], self._bit, self._sub, self._sub)
+        if self._step == "confirm":
+            return fastscan_request(self._address[self._sub], 0, self._sub, (self._sub + 1) & 3)
+        if self._step == "configure":
+            return [LSS_CONFIGURE_NODE_ID, self.next_node_id, 0, 0, 0, 0, 0, 0]
+        # "waiting": switch state global, LSS waiting (no answer)
+        return [LSS_SWITCH_GLOBAL, 0, 0, 0, 0, 0, 0, 0]
+
+    def answered(self, replies):
+        confirmed = any(len(r) > 0 and r[0] == LSS_IDENTIFY_SLAVE for r in replies)
+        if self.done:
+            return
+        if self._step == "restart":
+            if confirmed:
+                self._step = "bit"
+            else:
+                self.done = True
+        elif self._step == "bit":
+            if not confirmed:
+                self._address[self._sub] |= 1 << self._bit
+            if self._bit == 0:
+                self._step = "confirm"
+            else:
+                self._bit -= 1
+        elif self._step == "confirm":
+            if not confirmed:
+                self._fail("no slave confirmed part %d = %08X" % (self._sub, self._address[self._sub]))
+            elif self._sub == 3:
+                self._step = "configure"
+            else:
+                self._sub += 1
+                self._bit = 31
+                self._step = "bit"
+        elif self._step == "configure":
+            answers = [r for r in replies if len(r) > 1 and r[0] == LSS_CONFIGURE_NODE_ID]
+            if len(answers) != 1 or answers[0][1] != 0:
+                self._fail("configure node-ID %d: answers %r" % (self.next_node_id, answers))
+            else:
+                self.found.append(tuple(self._address) + (self.next_node_id,))
+                self._step = "waiting"
+        else:
+            if self.next_node_id >= self.last_node_id:
+                self.done = True
+            else:
+                self.next_node_id += 1
+                self._scan()
+
+    def _fail(self, why):
+        self.error = why
+        self.done = True
+
+
+def format_found(found):
+    """One find as the log line shows it: serial first, then vendor, product, revision and the
+    node-ID given."""
+    vendor, product, revision, serial, node_id = found
+    return "found serial %08X (vendor %08X, product %08X, revision %08X), node-ID %d" % (
+        serial, vendor, product, revision, node_id)
 
 
 def _hub(name):
@@ -166,3 +289,56 @@ def mc_sensor_feed(machine_name, turns, angle, count=1):
     finally:
         if running:
             emulation.StartAll()
+
+
+def mc_lss_fastscan(hub_name, first_node_id=0x20, window_ms=10):
+    import System
+    from Antmicro.Renode.Core.CAN import CANMessageFrame
+    from Antmicro.Renode.Logging import Logger, LogLevel
+    from Antmicro.Renode.Testing import CANTester
+    from Antmicro.Renode.Time import TimeInterval, TimeStamp
+    hub = _hub(hub_name)
+    master = emulationManager.CurrentEmulation.MasterTimeSource
+    window = TimeInterval.FromMicroseconds(System.UInt64(int(window_ms) * 1000))
+    scan = Fastscan(int(first_node_id))
+    tester = CANTester(TimeInterval.FromSeconds(1.0))
+    replies = []
+
+    def on_frame(external, sender, frame):
+        if int(frame.Id) == LSS_SLAVE_ID and not frame.ExtendedFormat and not frame.RemoteFrame:
+            replies.append([int(b) for b in frame.Data])
+
+    def log(text):
+        Logger.Log(LogLevel.Info, "LSS fastscan %s: %s" % (hub_name, text))
+
+    def later(action):
+        # At the first synchronisation point one window from now (virtual time).
+        master.ExecuteInSyncedState(System.Action[TimeStamp](action),
+                                    TimeStamp(master.ElapsedVirtualTime + window, master.Domain))
+
+    def step(timestamp, first=False):
+        try:
+            if not first:
+                found_before = len(scan.found)
+                scan.answered(list(replies))
+                if len(scan.found) > found_before:
+                    log(format_found(scan.found[-1]))
+            del replies[:]
+            request = scan.request()
+            if request is None:
+                hub.FrameReceived -= on_frame
+                hub.DetachFrom(tester)
+                if scan.error is not None:
+                    log("failed: %s" % scan.error)
+                log("done, %d found" % len(scan.found))
+                return
+            frame = CANMessageFrame(System.UInt32(LSS_MASTER_ID), System.Array[System.Byte](request))
+            tester.SendFrame(frame)
+            later(step)
+        except Exception as e:
+            log("failed: %s" % e)
+
+    hub.AttachTo(tester)
+    hub.FrameReceived += on_frame
+    # The first request goes out once the emulation runs (a paused hub drops frames).
+    later(lambda timestamp: step(timestamp, True))

@@ -19,7 +19,7 @@ use embassy_stm32::can::{
     BufferedCanRx, Can, CanTx, ExtendedId, Fifo, Frame as HwFrame, Id, Mailbox, RxBuf as HwRxBuf, StandardId,
 };
 use embassy_stm32::pac;
-use embassy_time::{with_timeout, Duration};
+use embassy_time::{with_deadline, Duration, Instant};
 use heapless::Vec;
 use od_core::node::BusEvent;
 use od_core::{Bitrate, CanId, Frame};
@@ -128,12 +128,14 @@ impl Bus {
         Bus { can, tx, rx: rx_half.buffered(rx), queue: TxQueue::default(), errors: ErrorTracker::default() }
     }
 
-    /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset). The frames the
-    /// node queued before the switch belong to the old rate: they go out first, as long as the
-    /// bus takes them within [`FLUSH_TIMEOUT`]; what is left then is dropped. The controller
-    /// re-joins the bus at the new rate after 11 recessive bits.
-    pub async fn set_bitrate(&mut self, rate: Bitrate) {
-        let _ = with_timeout(FLUSH_TIMEOUT, async {
+    /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset, a candidate of
+    /// the automatic bit-rate detection). The frames the node queued before the switch belong to
+    /// the old rate: they go out first, as long as the bus takes them within [`FLUSH_TIMEOUT`];
+    /// what is left then is dropped. The controller re-joins the bus at the new rate after 11
+    /// recessive bits; `silent`: in silent mode (it sends nothing, not even an ACK or an error
+    /// frame, while the node detects the rate, `Node::listen_only`).
+    pub async fn set_bitrate(&mut self, rate: Bitrate, silent: bool) {
+        let _ = with_deadline(crate::wake_at(Instant::now() + FLUSH_TIMEOUT), async {
             loop {
                 self.pump();
                 let empty = self.queue.is_empty();
@@ -148,18 +150,35 @@ impl Bus {
             self.tx.abort(mb);
         }
         self.queue.clear();
-        self.can.modify_config().set_bit_timing(bit_timing(rate));
+        self.can.modify_config().set_bit_timing(bit_timing(rate)).set_silent(silent);
         self.can.enable().await;
     }
 
-    /// Programs the acceptance filters to pass exactly `ids` (all banks on FIFO 0, so frames
-    /// keep their order).
-    pub fn set_filters(&mut self, ids: &[RxId]) {
-        let banks = banks(ids, BANKS);
+    /// Opens the acceptance filters to every frame (while the node detects the rate: any frame
+    /// received without error proves it).
+    pub fn accept_all(&mut self) {
+        let mut filters = self.can.modify_filters();
+        filters.clear();
+        filters.enable_bank(0, Fifo::Fifo0, BankConfig::Mask32(Mask32::accept_all()));
+    }
+
+    /// Programs the acceptance filters to pass exactly `ids`, and the 29-bit data frames each
+    /// (identifier, mask) of `masks` passes (a J1939 node's), one bank each after the lists (all
+    /// banks on FIFO 0, so frames keep their order).
+    pub fn set_filters(&mut self, ids: &[RxId], masks: &[(u32, u32)]) {
+        let banks = banks(ids, BANKS.saturating_sub(masks.len()));
         let mut filters = self.can.modify_filters();
         filters.clear();
         for (i, bank) in banks.iter().enumerate() {
             filters.enable_bank(i as u8, Fifo::Fifo0, bank_config(bank));
+        }
+        for (k, &(id, mask)) in masks.iter().enumerate().take(BANKS - banks.len()) {
+            let (Some(id), Some(mask)) = (ExtendedId::new(id & 0x1FFF_FFFF), ExtendedId::new(mask & 0x1FFF_FFFF))
+            else {
+                continue;
+            };
+            let bank = BankConfig::Mask32(Mask32::frames_with_ext_id(id, mask));
+            filters.enable_bank((banks.len() + k) as u8, Fifo::Fifo0, bank);
         }
     }
 

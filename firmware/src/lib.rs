@@ -21,3 +21,10 @@ pub mod run;
 pub fn now() -> od_core::Instant {
     od_core::Instant::from_micros(embassy_time::Instant::now().as_micros())
 }
+
+/// When to wake for something due at `t`: `t`, or 1 or 2 µs later if the time driver would
+/// program `t` as a compare value Renode's timer model may not fire for (0, FFFFh;
+/// [`board_plan::alarm`]). Every timer the firmware awaits is set through it.
+pub fn wake_at(t: embassy_time::Instant) -> embassy_time::Instant {
+    embassy_time::Instant::from_ticks(board_plan::alarm::wake_tick(t.as_ticks()))
+}

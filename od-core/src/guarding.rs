@@ -4,16 +4,19 @@
 //! 7; 0 in the first answer after boot-up, alternating with every answer) and the NMT state
 //! (bits 6..0). The first RTR also starts life guarding when guard time (100Ch, ms) and life
 //! time factor (100Dh) are both non-zero: when a life time (their product) passes without an
-//! RTR, the node notes a life guarding event ([`life_guard_event`]: the WV5800M's red LED
+//! RTR, the node notes a life guarding event ([`Guarding::life_guard_event`]: the WV5800M's red LED
 //! double flash) and waits for the next RTR, which ends it. No EMCY and no NMT state change:
 //! no manual lists one. While the heartbeat producer runs (1017h not 0) the node uses the
 //! heartbeat protocol only and does not answer RTRs (CiA 301). Decisions D-HB-n in
 //! `docs/decisions.md`.
 
 use crate::abort::Abort;
+use crate::context::Outbox;
 use crate::frame::Frame;
-use crate::node::Core;
+use crate::nmt::NmtState;
+use crate::od::Od;
 use crate::time::Instant;
+use crate::wire::nmt::ErrorControl;
 
 /// Index of the guard time.
 pub const GUARD_TIME: u16 = 0x100C;
@@ -47,141 +50,119 @@ impl Guarding {
     }
 }
 
-/// Has a life guarding event happened and no guarding RTR come since?
-pub fn life_guard_event(core: &Core) -> bool {
-    core.guarding.event
-}
-
-/// Restarts guarding (after boot-up): toggle bit 0, life guarding off until the first RTR.
-pub fn reset(core: &mut Core) {
-    let guard_ms = core.od.value(GUARD_TIME, 0).unwrap_or(0) as u16;
-    let factor = core.od.value(LIFE_TIME_FACTOR, 0).unwrap_or(0) as u8;
-    core.guarding = Guarding { guard_ms, factor, ..Guarding::default() };
-}
-
-/// Stops life guarding (the heartbeat producer was switched on).
-pub(crate) fn suspend(core: &mut Core) {
-    core.guarding.deadline = None;
-}
-
-/// Answers a guarding RTR on 700h + node-ID (any DLC) and restarts the life time.
-pub fn on_rtr(core: &mut Core, frame: &Frame, now: Instant) {
-    if !frame.rtr || core.heartbeat.active() {
-        return;
+impl Guarding {
+    /// Has a life guarding event happened and no guarding RTR come since?
+    pub fn life_guard_event(&self) -> bool {
+        self.event
     }
-    let toggle = if core.guarding.toggle { 0x80 } else { 0 };
-    core.out.send(Frame::std(0x700 + core.node_id as u16, &[toggle | core.nmt.code()]));
-    let g = &mut core.guarding;
-    g.toggle = !g.toggle;
-    g.event = false;
-    g.restart(now);
-}
 
-/// Detects an expired life time.
-pub fn poll(core: &mut Core, now: Instant) {
-    if let Some(deadline) = core.guarding.deadline {
-        if now >= deadline {
-            core.guarding.deadline = None;
-            core.guarding.event = true;
+    /// Restarts guarding (after boot-up) with 100Ch/100Dh from `od`: toggle bit 0, life
+    /// guarding off until the first RTR.
+    pub fn reset(&mut self, od: &Od) {
+        let guard_ms = od.value(GUARD_TIME, 0).unwrap_or(0) as u16;
+        let factor = od.value(LIFE_TIME_FACTOR, 0).unwrap_or(0) as u8;
+        *self = Guarding { guard_ms, factor, ..Guarding::default() };
+    }
+
+    /// Stops life guarding (the heartbeat producer was switched on).
+    pub fn suspend(&mut self) {
+        self.deadline = None;
+    }
+
+    /// Answers a guarding RTR for node `node_id` in state `nmt` and restarts the life time;
+    /// nothing while the heartbeat producer runs (`heartbeat_active`). Returns whether a life
+    /// guarding event ended.
+    pub fn on_rtr(
+        &mut self,
+        out: &mut Outbox,
+        node_id: u8,
+        nmt: NmtState,
+        heartbeat_active: bool,
+        now: Instant,
+    ) -> bool {
+        if heartbeat_active {
+            return false;
+        }
+        let message = ErrorControl { state: nmt.code(), toggle: self.toggle };
+        out.send(Frame::std(0x700 + node_id as u16, &message.emit()));
+        self.toggle = !self.toggle;
+        let ended = core::mem::replace(&mut self.event, false);
+        self.restart(now);
+        ended
+    }
+
+    /// Detects an expired life time; returns true when a life guarding event begins.
+    #[inline]
+    pub fn poll(&mut self, now: Instant) -> bool {
+        match self.deadline {
+            Some(deadline) if now >= deadline => {
+                self.deadline = None;
+                self.event = true;
+                true
+            }
+            _ => false,
         }
     }
-}
 
-/// When the life time next expires.
-pub fn next_deadline(core: &Core) -> Option<Instant> {
-    core.guarding.deadline
-}
+    /// When the life time next expires.
+    pub fn next_deadline(&self) -> Option<Instant> {
+        self.deadline
+    }
 
-/// Checks a write to 100Ch/100Dh (entry `pos`; every value is allowed); on `Ok` the node
-/// stores the value. Running life guarding restarts with the new life time from now; a life
-/// time of 0 stops it.
-pub fn on_write(core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
-    let g = &mut core.guarding;
-    match core.od.entry(pos).index {
-        GUARD_TIME => g.guard_ms = value as u16,
-        LIFE_TIME_FACTOR => g.factor = value as u8,
-        _ => return Ok(()),
+    /// Checks a write to 100Ch/100Dh (`index`; every value is allowed); on `Ok` the node
+    /// stores the value. Running life guarding restarts with the new life time from now; a
+    /// life time of 0 stops it.
+    pub fn on_write(&mut self, index: u16, value: u32, now: Instant) -> Result<(), Abort> {
+        match index {
+            GUARD_TIME => self.guard_ms = value as u16,
+            LIFE_TIME_FACTOR => self.factor = value as u8,
+            _ => return Ok(()),
+        }
+        if self.deadline.is_some() {
+            self.restart(now);
+        }
+        Ok(())
     }
-    if g.deadline.is_some() {
-        g.restart(now);
-    }
-    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bitrate::Bitrate;
-    use crate::devices::sgh10;
-    use crate::frame::CanId;
-    use crate::heartbeat;
-    use crate::nmt::NmtState;
-    use crate::node::{Device, Node, Output};
+    use crate::context::Output;
 
-    struct T;
-    impl Device for T {
-        fn table(&self) -> &'static [crate::od::Entry] {
-            sgh10::TABLE
-        }
-    }
-
-    fn rtr(node: &mut Node<T>, ms: u64) -> Option<u8> {
-        node.on_frame(&Frame::remote(CanId::Std(0x701), 1), Instant::from_millis(ms));
-        match node.next_output() {
-            Some(Output::Frame(f)) => Some(f.data[0]),
-            _ => None,
-        }
-    }
-
-    fn write(node: &mut Node<T>, index: u16, value: u32, ms: u64) {
-        let core = node.split().1;
-        let pos = core.od.pos(index, 0).unwrap();
-        on_write(core, pos, value, Instant::from_millis(ms)).unwrap();
-        core.od.set(pos, value);
-    }
-
+    /// No device, no node: guarding alone, with an outbox.
     #[test]
     fn toggle_and_life_time() {
-        let mut node = Node::new(T, 1, Bitrate::K500);
-        node.poll(Instant::ZERO);
-        node.next_output();
+        let mut g = Guarding::default();
+        let mut out = Outbox::default();
+        let at = Instant::from_millis;
+        let mut rtr = |g: &mut Guarding, hb: bool, ms: u64| {
+            g.on_rtr(&mut out, 1, NmtState::PreOperational, hb, at(ms));
+            match out.pop() {
+                Some(Output::Frame(f)) => Some(f.data[0]),
+                _ => None,
+            }
+        };
         // Guarding answers even with 100Ch/100Dh at 0; no life guarding then.
-        assert_eq!(rtr(&mut node, 1), Some(0x7F));
-        assert_eq!(rtr(&mut node, 2), Some(0xFF));
-        assert_eq!(node.next_deadline(), None);
-        write(&mut node, GUARD_TIME, 100, 3);
-        write(&mut node, LIFE_TIME_FACTOR, 3, 3);
-        assert_eq!(node.next_deadline(), None);
-        assert_eq!(rtr(&mut node, 10), Some(0x7F));
-        assert_eq!(node.next_deadline(), Some(Instant::from_millis(310)));
-        node.poll(Instant::from_millis(309));
-        assert!(!life_guard_event(node.core()));
-        node.poll(Instant::from_millis(310));
-        assert!(life_guard_event(node.core()));
-        assert_eq!(node.nmt_state(), NmtState::PreOperational);
-        assert_eq!(node.next_output(), None);
-        assert_eq!(node.next_deadline(), None);
-        assert_eq!(rtr(&mut node, 400), Some(0xFF));
-        assert!(!life_guard_event(node.core()));
+        assert_eq!(rtr(&mut g, false, 1), Some(0x7F));
+        assert_eq!(rtr(&mut g, false, 2), Some(0xFF));
+        assert_eq!(g.next_deadline(), None);
+        g.on_write(GUARD_TIME, 100, at(3)).unwrap();
+        g.on_write(LIFE_TIME_FACTOR, 3, at(3)).unwrap();
+        assert_eq!(g.next_deadline(), None);
+        assert_eq!(rtr(&mut g, false, 10), Some(0x7F));
+        assert_eq!(g.next_deadline(), Some(at(310)));
+        assert!(!g.poll(at(309)) && !g.life_guard_event());
+        assert!(g.poll(at(310)) && g.life_guard_event());
+        assert_eq!(g.next_deadline(), None);
+        assert_eq!(rtr(&mut g, false, 400), Some(0xFF));
+        assert!(!g.life_guard_event());
         // A new factor restarts the running life time from the write.
-        write(&mut node, LIFE_TIME_FACTOR, 5, 450);
-        assert_eq!(node.next_deadline(), Some(Instant::from_millis(950)));
-        write(&mut node, GUARD_TIME, 0, 460);
-        assert_eq!(node.next_deadline(), None);
-    }
-
-    #[test]
-    fn heartbeat_excludes_guarding() {
-        let mut node = Node::new(T, 1, Bitrate::K500);
-        node.poll(Instant::ZERO);
-        node.next_output();
-        write(&mut node, GUARD_TIME, 100, 0);
-        write(&mut node, LIFE_TIME_FACTOR, 2, 0);
-        assert_eq!(rtr(&mut node, 0), Some(0x7F));
-        heartbeat::on_write(node.split().1, 1000, Instant::from_millis(5)).unwrap();
-        assert_eq!(next_deadline(node.core()), None);
-        assert_eq!(rtr(&mut node, 10), None);
-        heartbeat::on_write(node.split().1, 0, Instant::from_millis(20)).unwrap();
-        assert_eq!(rtr(&mut node, 30), Some(0xFF));
+        g.on_write(LIFE_TIME_FACTOR, 5, at(450)).unwrap();
+        assert_eq!(g.next_deadline(), Some(at(950)));
+        g.on_write(GUARD_TIME, 0, at(460)).unwrap();
+        assert_eq!(g.next_deadline(), None);
+        // While the heartbeat runs, no answer.
+        assert_eq!(rtr(&mut g, true, 500), None);
     }
 }

@@ -7,10 +7,12 @@
 //! write. Decisions D-HB-n in `docs/decisions.md`.
 
 use crate::abort::Abort;
+use crate::context::Outbox;
 use crate::frame::Frame;
-use crate::guarding;
-use crate::node::Core;
-use crate::time::Instant;
+use crate::nmt::NmtState;
+use crate::od::Od;
+use crate::time::{Duration, Instant};
+use crate::wire::nmt::ErrorControl;
 
 /// Index of the producer heartbeat time.
 pub const PRODUCER_TIME: u16 = 0x1017;
@@ -36,96 +38,94 @@ impl Heartbeat {
         self.period_ms != 0
     }
 
+    fn period(&self) -> Duration {
+        Duration::from_millis(self.period_ms as u64)
+    }
+
     fn start(&mut self, period_ms: u16, now: Instant) {
         self.period_ms = period_ms;
-        self.next = if period_ms == 0 { None } else { Some(now.add_millis(period_ms as u64)) };
+        self.next = if period_ms == 0 { None } else { Some(now + self.period()) };
     }
 }
 
-/// Restarts the producer (after boot-up) with the producer time 1017h holds.
-pub fn reset(core: &mut Core, now: Instant) {
-    let period = core.od.value(PRODUCER_TIME, 0).unwrap_or(0) as u16;
-    core.heartbeat.start(period, now);
-}
-
-/// Sends the heartbeat when due.
-pub fn poll(core: &mut Core, now: Instant) {
-    let Some(due) = core.heartbeat.next else {
-        return;
-    };
-    if now < due {
-        return;
+impl Heartbeat {
+    /// Restarts the producer (after boot-up) with the producer time 1017h holds.
+    pub fn reset(&mut self, od: &Od, now: Instant) {
+        let period = od.value(PRODUCER_TIME, 0).unwrap_or(0) as u16;
+        self.start(period, now);
     }
-    core.out.send(Frame::std(0x700 + core.node_id as u16, &[core.nmt.code()]));
-    // Keep the period's phase; a shell that polled far too late restarts it instead of
-    // sending a burst.
-    let period = core.heartbeat.period_ms as u64;
-    let next = due.add_millis(period);
-    core.heartbeat.next = Some(if next <= now { now.add_millis(period) } else { next });
-}
 
-/// When the next heartbeat is due.
-pub fn next_deadline(core: &Core) -> Option<Instant> {
-    core.heartbeat.next
-}
+    /// Sends the heartbeat of node `node_id` in state `nmt` when due.
+    #[inline]
+    pub fn poll(&mut self, out: &mut Outbox, node_id: u8, nmt: NmtState, now: Instant) {
+        let Some(due) = self.next else {
+            return;
+        };
+        if now < due {
+            return;
+        }
+        let message = ErrorControl { state: nmt.code(), toggle: false };
+        out.send(Frame::std(0x700 + node_id as u16, &message.emit()));
+        // Keep the period's phase; a shell that polled far too late restarts it instead of
+        // sending a burst.
+        let period = self.period();
+        let next = due + period;
+        self.next = Some(if next <= now { now + period } else { next });
+    }
 
-/// Checks a write to 1017h (0 or 10..65535 ms; 1..9 answer 06090030h); on `Ok` the node
-/// stores the value, and the producer restarts with it now.
-pub fn on_write(core: &mut Core, value: u32, now: Instant) -> Result<(), Abort> {
-    if (1..10).contains(&value) || value > 0xFFFF {
-        return Err(Abort::INVALID_VALUE);
+    /// When the next heartbeat is due.
+    pub fn next_deadline(&self) -> Option<Instant> {
+        self.next
     }
-    core.heartbeat.start(value as u16, now);
-    if value != 0 {
-        guarding::suspend(core);
+
+    /// Checks a write to 1017h (0 or 10..65535 ms; 1..9 answer 06090030h); on `Ok` the node
+    /// stores the value, and the producer restarts with it now. The node then stops life
+    /// guarding if the producer runs ([`Heartbeat::active`]).
+    pub fn on_write(&mut self, value: u32, now: Instant) -> Result<(), Abort> {
+        if (1..10).contains(&value) || value > 0xFFFF {
+            return Err(Abort::INVALID_VALUE);
+        }
+        self.start(value as u16, now);
+        Ok(())
     }
-    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bitrate::Bitrate;
-    use crate::devices::sgh10;
-    use crate::nmt::NmtState;
-    use crate::node::{Device, Node, Output};
+    use crate::context::Output;
 
-    struct T;
-    impl Device for T {
-        fn table(&self) -> &'static [crate::od::Entry] {
-            sgh10::TABLE
-        }
-    }
-
+    /// No device, no node: the producer alone, with an outbox.
     #[test]
     fn limits_and_timing() {
-        let mut node = Node::new(T, 3, Bitrate::K500);
-        node.poll(Instant::ZERO);
-        assert_eq!(node.next_output(), Some(Output::Frame(Frame::std(0x703, &[0]))));
-        assert_eq!(node.next_deadline(), None);
-        let core = node.split().1;
+        let mut hb = Heartbeat::default();
+        let mut out = Outbox::default();
+        let at = Instant::from_millis;
         for bad in [1, 5, 9, 0x1_0000] {
-            assert_eq!(on_write(core, bad, Instant::ZERO), Err(Abort::INVALID_VALUE));
+            assert_eq!(hb.on_write(bad, at(0)), Err(Abort::INVALID_VALUE));
         }
-        assert_eq!(core.heartbeat.period_ms(), 0);
-        assert_eq!(on_write(core, 10, Instant::from_millis(7)), Ok(()));
-        assert_eq!(next_deadline(core), Some(Instant::from_millis(17)));
-        assert_eq!(on_write(core, 0xFFFF, Instant::from_millis(7)), Ok(()));
-        assert_eq!(next_deadline(core), Some(Instant::from_millis(7 + 65535)));
-        assert_eq!(on_write(core, 100, Instant::from_millis(7)), Ok(()));
-        core.nmt = NmtState::Stopped;
-        node.poll(Instant::from_millis(106));
-        assert_eq!(node.next_output(), None);
-        node.poll(Instant::from_millis(107));
-        assert_eq!(node.next_output(), Some(Output::Frame(Frame::std(0x703, &[0x04]))));
-        assert_eq!(node.next_deadline(), Some(Instant::from_millis(207)));
+        assert_eq!(hb.period_ms(), 0);
+        assert_eq!(hb.next_deadline(), None);
+        assert_eq!(hb.on_write(10, at(7)), Ok(()));
+        assert_eq!(hb.next_deadline(), Some(at(17)));
+        assert_eq!(hb.on_write(0xFFFF, at(7)), Ok(()));
+        assert_eq!(hb.next_deadline(), Some(at(7 + 65535)));
+        assert_eq!(hb.on_write(100, at(7)), Ok(()));
+        hb.poll(&mut out, 3, NmtState::Stopped, at(106));
+        assert!(out.is_empty());
+        hb.poll(&mut out, 3, NmtState::Stopped, at(107));
+        assert_eq!(out.pop(), Some(Output::Frame(Frame::std(0x703, &[0x04]))));
+        assert_eq!(hb.next_deadline(), Some(at(207)));
         // A late poll keeps the phase; a very late one restarts the period.
-        node.poll(Instant::from_millis(250));
-        assert_eq!(node.next_deadline(), Some(Instant::from_millis(307)));
-        node.poll(Instant::from_millis(1000));
-        assert_eq!(node.next_deadline(), Some(Instant::from_millis(1100)));
-        let core = node.split().1;
-        assert_eq!(on_write(core, 0, Instant::from_millis(1000)), Ok(()));
-        assert_eq!(next_deadline(core), None);
+        hb.poll(&mut out, 3, NmtState::Operational, at(250));
+        assert_eq!(out.pop(), Some(Output::Frame(Frame::std(0x703, &[0x05]))));
+        assert_eq!(hb.next_deadline(), Some(at(307)));
+        hb.poll(&mut out, 3, NmtState::PreOperational, at(1000));
+        assert_eq!(out.pop(), Some(Output::Frame(Frame::std(0x703, &[0x7F]))));
+        assert_eq!(hb.next_deadline(), Some(at(1100)));
+        assert_eq!(hb.on_write(0, at(1000)), Ok(()));
+        assert_eq!(hb.next_deadline(), None);
+        hb.poll(&mut out, 3, NmtState::Operational, at(5000));
+        assert!(out.is_empty());
     }
 }

@@ -1,236 +1,103 @@
-//! A CANopen node: the dictionary, the services and the device, driven by frames and time.
+//! A CANopen node: the context, the CANopen services and the device, driven by frames and
+//! time.
 //!
-//! The shell (firmware, host test, simulator) feeds it with [`Node::on_frame`] and
-//! [`Node::poll`], performs the [`Output`]s it takes from [`Node::next_output`], and sleeps
-//! until [`Node::next_deadline`]. The node never waits, never reads a clock and keeps no
-//! global state.
+//! The node owns the transport-neutral [`Context`] (dictionary, outbox, storage, error
+//! conditions) and the state of each CANopen service (NMT, SDO server, EMCY producer,
+//! heartbeat, guarding, SYNC/PDOs, LSS), and hands each service the context and the facts it
+//! needs from the others per call: every dependency between services is visible here. The
+//! shell drives it through [`Station`]. The node never waits, never reads a clock and keeps
+//! no global state.
 
 use crate::abort::Abort;
+use crate::access::{self, Access, Services};
+use crate::autobaud::Scan;
 use crate::bitrate::Bitrate;
-use crate::emcy::{self, Emcy};
+use crate::context::Written;
+use crate::emcy;
 use crate::frame::{CanId, Frame, RxId};
-use crate::guarding::{self, Guarding};
-use crate::heartbeat::{self, Heartbeat};
+use crate::guarding::Guarding;
+use crate::heartbeat::Heartbeat;
 use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
-use crate::od::{CoreHook, Default as OdDefault, Entry, Group, GroupMask, Hook, Od};
-use crate::pdo::{self, PdoEvent, Pdos};
-use crate::sdo::{ObjectAccess, SdoServer, Written};
-use crate::storage::{self, Image, Loaded, Record, Storage};
+use crate::od::{CoreHook, Default as OdDefault, Group, Hook, Od};
+use crate::pdo::{self, PdoEvent, Pdos, RtrAnswer, RtrReply};
+use crate::sdo::SdoServer;
+use crate::shell::{DeviceStation, Station};
+use crate::storage::{self, Image, Loaded, Record};
 use crate::time::{earliest, Instant};
+use crate::wire::nmt::{self as nmt_wire, ErrorControl};
 
-/// Something the shell must do for the node.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum Output {
-    /// Put this frame on the bus.
-    Frame(Frame),
-    /// Persist the current values of these parameter groups, then report the result with
-    /// [`Node::store_done`].
-    Store(GroupMask),
-    /// Switch the CAN controller to this bit rate now (the node sends and receives nothing
-    /// meanwhile).
-    SetBitrate(Bitrate),
-}
-
-/// How many outputs may wait for the shell. A node produces at most a handful per frame
-/// or tick; the shell drains the queue after each call.
-pub const OUTBOX_DEPTH: usize = 32;
-
-/// Most frame kinds [`Node::rx_ids`] lists: LSS, NMT, SDO, guarding and SYNC, two for each of
-/// up to [`pdo::MAX_RPDOS`] RPDOs and one for each TPDO.
-pub const MAX_RX_IDS: usize = 5 + 2 * pdo::MAX_RPDOS + pdo::MAX_TPDOS;
-
-/// Outputs waiting for the shell.
-#[derive(Clone, Default)]
-pub struct Outbox {
-    q: heapless::Deque<Output, OUTBOX_DEPTH>,
-}
-
-impl Outbox {
-    /// Queues an output. When the shell has not drained the queue the oldest frame is kept
-    /// and the new one dropped, as a full CAN transmit mailbox would.
-    pub fn push(&mut self, out: Output) {
-        let _ = self.q.push_back(out);
-    }
-
-    /// Queues a frame.
-    pub fn send(&mut self, frame: Frame) {
-        self.push(Output::Frame(frame));
-    }
-
-    /// Takes the oldest output.
-    pub fn pop(&mut self) -> Option<Output> {
-        self.q.pop_front()
-    }
-
-    /// Nothing waiting?
-    pub fn is_empty(&self) -> bool {
-        self.q.is_empty()
-    }
-}
-
-/// Which reset the node performs (NMT 81h / 82h, power-on).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum ResetKind {
-    /// Power-on or NMT Reset Node (81h): application and communication re-initialised.
-    Node,
-    /// NMT Reset Communication (82h): communication re-initialised only.
-    Communication,
-}
-
-/// What the CAN controller reports besides frames. The shell passes each change it sees to
-/// [`Node::on_bus_event`]; the device turns them into its diagnosis objects and EMCYs (5000h,
-/// 1002h, 8120h, 8140h as its manual says).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum BusEvent {
-    /// The controller entered the error-passive state (an error counter above 127).
-    ErrorPassive,
-    /// The controller is error active again (both error counters back below 128).
-    ErrorActive,
-    /// The controller went bus-off (transmit error counter above 255); it sends nothing.
-    BusOff,
-    /// The controller recovered from bus-off (128 × 11 recessive bits) and is error active.
-    BusOffRecovered,
-    /// A received frame was lost because the receive FIFO was full.
-    RxOverrun,
-    /// The controller detected a protocol error of this kind (its last error code).
-    ProtocolError(CanError),
-    /// The controller's current error counters (for 1002h), reported when they change.
-    ErrorCounters {
-        /// Receive error counter.
-        rx: u8,
-        /// Transmit error counter.
-        tx: u8,
-    },
-}
-
-/// The kind of a CAN protocol error (ISO 11898-1), as controllers report it.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum CanError {
-    /// Bit stuffing violated.
-    Stuff,
-    /// A fixed-form field held an illegal bit.
-    Form,
-    /// No node acknowledged a transmitted frame.
-    Acknowledge,
-    /// A transmitted bit read back different (recessive or dominant).
-    Bit,
-    /// The received CRC did not match.
-    Crc,
-}
-
-/// The node's state that every service and the device may touch: the dictionary, the NMT
-/// state, the active node-ID and bit rate, and the output queue.
-pub struct Core {
-    /// Object dictionary.
-    pub od: Od,
-    /// NMT state.
-    pub nmt: NmtState,
-    /// Active node-ID (1..=127), or 255 while unconfigured (LSS only).
-    pub node_id: u8,
-    /// Active bit rate.
-    pub bitrate: Bitrate,
-    /// Outputs for the shell.
-    pub out: Outbox,
-    /// EMCY producer and error history.
-    pub emcy: Emcy,
-    /// Heartbeat producer.
-    pub heartbeat: Heartbeat,
-    /// Node and life guarding.
-    pub guarding: Guarding,
-    /// SYNC consumer and PDOs.
-    pub pdo: Pdos,
-    /// LSS slave.
-    pub lss: Lss,
-    /// Stored parameters: what an NMT reset loads, pending restores and saves.
-    pub storage: Storage,
-}
-
-impl Core {
-    /// Does the node take part in CANopen (has a valid node-ID)?
-    pub fn configured(&self) -> bool {
-        (1..=127).contains(&self.node_id)
-    }
-}
-
-/// What a device (a CiA 406 encoder, the AP10T display ...) adds to the core.
-pub trait Device {
-    /// The device's dictionary, sorted by (index, sub).
-    fn table(&self) -> &'static [Entry];
-
-    /// The coding of the pending bit-rate entry (hooked `PendingBitrate`) as (code, rate).
-    fn bitrate_codes(&self) -> &'static [(u32, Bitrate)] {
-        crate::bitrate::SIKO_CODES
-    }
-
-    /// Does a 1011h restore of `groups` set entry `e` back to its default? By default the
-    /// entries of those storage groups (1011h sub 2, 3, 4 = index ranges 1000h-1FFFh,
-    /// 6000h-9FFFh, 2000h-5FFFh). A device whose manual lists other entries overrides it (the
-    /// AP10T's "bus parameters", manual Table 4). Factory data is never restored.
-    fn restores(&self, e: &Entry, groups: GroupMask) -> bool {
-        groups.contains(e.group)
-    }
-
-    /// Checks and applies a write to an entry whose hook is `Hook::Device(_)`. Called after
-    /// the type, access and limit checks; on `Ok` the core stores `value`.
-    fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
-        let _ = (core, pos, value, now);
-        Ok(())
-    }
-
-    /// A receive PDO (0-based number `n`) has written its mapped entries.
-    fn on_rpdo(&mut self, core: &mut Core, n: u8, now: Instant) {
-        let _ = (core, n, now);
-    }
-
-    /// A remote frame asked for receive PDO `n` (0-based) in OPERATIONAL. CiA 301 defines no
-    /// answer, so by default there is none; a device whose manual has one (the AP10T returns
-    /// its set points) sends it, typically with [`pdo::reply`].
-    fn on_rpdo_rtr(&mut self, core: &mut Core, n: u8, now: Instant) {
-        let _ = (core, n, now);
-    }
-
-    /// A SYNC was received in PRE-OPERATIONAL or OPERATIONAL (after the synchronous TPDOs
-    /// were sent and the synchronous RPDOs written).
-    fn on_sync(&mut self, core: &mut Core, now: Instant) {
-        let _ = (core, now);
-    }
-
-    /// Called after a reset, with the dictionary already re-initialised.
-    fn on_reset(&mut self, core: &mut Core, kind: ResetKind, now: Instant) {
-        let _ = (core, kind, now);
-    }
-
-    /// Device timers.
-    fn poll(&mut self, core: &mut Core, now: Instant) {
-        let _ = (core, now);
-    }
-
-    /// When the device next needs [`Device::poll`].
-    fn next_deadline(&self) -> Option<Instant> {
-        None
-    }
-
-    /// The CAN controller reported `event` (see [`Node::on_bus_event`]).
-    fn on_bus_event(&mut self, core: &mut Core, event: BusEvent, now: Instant) {
-        let _ = (core, event, now);
-    }
-
-    /// Does the device have an LSS slave (CiA 305)? The SGH10, SGH50 and WV5800M do; the
-    /// AP10T and the WV58MR have none and return false: their node then ignores 7E5h.
-    fn has_lss(&self) -> bool {
-        true
-    }
-}
+/// The context under its former name.
+pub use crate::context::Context as Core;
+pub use crate::context::{BusEvent, CanError, Context, Outbox, Output, ResetKind, OUTBOX_DEPTH};
+pub use crate::device::{CanopenDevice, CanopenStatus, Device, DeviceRequests, Link};
+pub use crate::shell::{RxIds, MAX_RX_IDS};
 
 /// A CANopen node running device `D`.
-pub struct Node<D: Device> {
-    core: Core,
+pub struct Node<D: CanopenDevice> {
+    ctx: Context,
     device: D,
+    nmt: NmtState,
     sdo: SdoServer,
+    heartbeat: Heartbeat,
+    guarding: Guarding,
+    pdo: Pdos,
+    lss: Lss,
+    /// The automatic bit-rate detection under way (before the boot-up).
+    scan: Option<Scan>,
 }
 
-impl<D: Device> Node<D> {
+/// The CANopen services whose rules the dictionary access path applies to their entries,
+/// with the NMT state they judge by.
+struct CanopenServices<'a> {
+    nmt: NmtState,
+    heartbeat: &'a mut Heartbeat,
+    guarding: &'a mut Guarding,
+    pdo: &'a mut Pdos,
+    lss: &'a mut Lss,
+}
+
+impl Services for CanopenServices<'_> {
+    fn write(
+        &mut self,
+        ctx: &mut Context,
+        hook: CoreHook,
+        pos: usize,
+        value: u32,
+        now: Instant,
+    ) -> Result<Written, Abort> {
+        match hook {
+            CoreHook::EmcyCobId => emcy::on_write_cob_id(&ctx.od, self.nmt, pos, value)?,
+            CoreHook::Guarding => self.guarding.on_write(ctx.od.entry(pos).index, value, now)?,
+            CoreHook::HeartbeatTime => {
+                self.heartbeat.on_write(value, now)?;
+                // One error-control protocol at a time (CiA 301).
+                if self.heartbeat.active() {
+                    self.guarding.suspend();
+                }
+            }
+            CoreHook::SyncCobId
+            | CoreHook::PdoCobId
+            | CoreHook::PdoTransmissionType
+            | CoreHook::PdoEventTimer
+            | CoreHook::PdoMapping => self.pdo.on_write(ctx, self.nmt, hook, pos, value, now)?,
+            // The access path applies the context's own hooks.
+            CoreHook::Store
+            | CoreHook::Restore
+            | CoreHook::ErrorHistory
+            | CoreHook::PendingNodeId
+            | CoreHook::PendingBitrate => return Err(Abort::GENERAL),
+        }
+        Ok(Written::Done)
+    }
+
+    fn pending_bitrate_written(&mut self) {
+        // An SDO-written rate is adopted at the next reset, also over an LSS-configured one.
+        self.lss.rate_written();
+    }
+}
+
+impl<D: CanopenDevice> Node<D> {
     /// A node that has just been powered on with `node_id` and `bitrate` configured and stored
     /// before (in the pending node-ID and bit-rate entries) and every other parameter at its
     /// default: [`Node::boot`] from an image holding just those two.
@@ -248,8 +115,11 @@ impl<D: Device> Node<D> {
             }
         }
         let mut node = Node::power_on(device, &Loaded::Image(image), node_id);
-        node.core.node_id = node_id;
-        node.core.bitrate = bitrate;
+        node.ctx.node_id = node_id;
+        node.ctx.bitrate = bitrate;
+        if code.is_some() {
+            node.scan = None;
+        }
         node
     }
 
@@ -265,27 +135,41 @@ impl<D: Device> Node<D> {
 
     fn power_on(device: D, loaded: &Loaded, fallback_node_id: u8) -> Node<D> {
         let (od, storage, node_id) = storage::power_on(device.table(), loaded, fallback_node_id);
-        let bitrate = pending_bitrate(&device, &od).unwrap_or(Bitrate::K500);
+        let pending = pending_bitrate(&device, &od);
+        let scan = match pending {
+            None if storage::pending(&od, CoreHook::PendingBitrate).is_some() => Scan::new(device.auto_bitrates()),
+            _ => None,
+        };
+        let bitrate = pending.or(scan.map(|s| s.rate())).unwrap_or(Bitrate::K500);
+        let mut sdo = SdoServer::new();
+        sdo.set_expedited_only(device.sdo_expedited_only());
         let lss = Lss::new(&od, device.has_lss(), device.bitrate_codes());
-        let core = Core {
-            od,
+        let mut ctx = Context::new(od, storage, node_id, bitrate);
+        ctx.errors.announce_with(emcy::frame);
+        ctx.errors.set_gate(emcy::gate(NmtState::Initialising));
+        let mut node = Node {
+            ctx,
+            device,
             nmt: NmtState::Initialising,
-            node_id,
-            bitrate,
-            out: Outbox::default(),
-            emcy: Emcy::default(),
+            sdo,
             heartbeat: Heartbeat::default(),
             guarding: Guarding::default(),
             pdo: Pdos::default(),
             lss,
-            storage,
+            scan,
         };
-        Node { core, device, sdo: SdoServer::new() }
+        node.notify();
+        node
     }
 
     /// The shared state.
-    pub fn core(&self) -> &Core {
-        &self.core
+    pub fn context(&self) -> &Context {
+        &self.ctx
+    }
+
+    /// The shared state (the former name of [`Node::context`]).
+    pub fn core(&self) -> &Context {
+        &self.ctx
     }
 
     /// The device.
@@ -293,66 +177,139 @@ impl<D: Device> Node<D> {
         &self.device
     }
 
-    /// The device and the core together, for the shell's sensor samples and key presses.
-    pub fn split(&mut self) -> (&mut D, &mut Core) {
-        (&mut self.device, &mut self.core)
+    /// The device and the context together, for the shell's sensor samples and key presses.
+    pub fn split(&mut self) -> (&mut D, &mut Context) {
+        (&mut self.device, &mut self.ctx)
     }
 
     /// The NMT state.
     pub fn nmt_state(&self) -> NmtState {
-        self.core.nmt
+        self.nmt
+    }
+
+    /// The LSS slave.
+    pub fn lss(&self) -> &Lss {
+        &self.lss
+    }
+
+    /// The heartbeat producer.
+    pub fn heartbeat(&self) -> &Heartbeat {
+        &self.heartbeat
+    }
+
+    /// Node and life guarding.
+    pub fn guarding(&self) -> &Guarding {
+        &self.guarding
+    }
+
+    /// SYNC and the PDOs.
+    pub fn pdos(&self) -> &Pdos {
+        &self.pdo
+    }
+
+    /// What the node's LEDs show.
+    pub fn status(&self) -> CanopenStatus {
+        CanopenStatus {
+            nmt: self.nmt,
+            lss_configuration: self.lss.enabled() && self.lss.state() == lss::LssState::Configuration,
+            life_guard_event: self.guarding.life_guard_event(),
+        }
+    }
+
+    /// Tells the device the status its LEDs show.
+    #[inline(never)]
+    fn notify(&mut self) {
+        let status = self.status();
+        self.device.on_status(status);
+    }
+
+    /// Enters NMT state `state`; error announcements follow it (EMCY rules).
+    #[inline]
+    fn set_nmt(&mut self, state: NmtState) {
+        self.nmt = state;
+        self.ctx.errors.set_gate(emcy::gate(state));
     }
 
     /// Takes the next thing the shell must do.
+    #[inline]
     pub fn next_output(&mut self) -> Option<Output> {
-        self.core.out.pop()
+        self.ctx.out.pop()
+    }
+
+    /// Is the node detecting its bit rate (before its boot-up)? The shell then runs its CAN
+    /// controller silent (it sends nothing, not even an ACK or an error frame), at the rate
+    /// the last `Output::SetBitrate` named, with its acceptance filters open, and passes every
+    /// frame received without error: the first one ends the detection (D-AP-20).
+    pub fn listen_only(&self) -> bool {
+        self.scan.is_some()
     }
 
     /// Handles one received frame.
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        // A frame received without error during the bit-rate detection proves the rate: the
+        // node takes it (as its pending code, which a 1010h save keeps) and boots up.
+        if let Some(scan) = self.scan.take() {
+            let rate = scan.rate();
+            self.ctx.bitrate = rate;
+            let code = self.device.bitrate_codes().iter().find(|(_, b)| *b == rate).map(|(c, _)| *c);
+            if let (Some(pos), Some(code)) = (self.ctx.od.find_hook(CoreHook::PendingBitrate), code) {
+                self.ctx.od.set(pos, code);
+            }
+            return;
+        }
         // LSS works in every NMT state and without a node-ID (CiA 305).
-        if frame.id == CanId::Std(lss::RX_ID) && self.core.lss.enabled() {
-            let event = lss::on_frame(&mut self.core, frame, now);
+        if frame.id == CanId::Std(lss::RX_ID) && self.lss.enabled() {
+            let event = self.lss.on_frame(&mut self.ctx, frame, now);
             self.on_lss(event, now);
+            self.notify();
             return;
         }
         // An LSS bit-rate switch sets INITIALISATION: nothing else is handled until boot-up.
-        if !self.core.configured() || self.core.nmt == NmtState::Initialising {
+        if !self.ctx.configured() || self.nmt == NmtState::Initialising {
             return;
         }
-        let id = self.core.node_id as u16;
+        let id = self.ctx.node_id as u16;
         match frame.id {
             CanId::Std(0) => {
-                if let Some(req) = NmtRequest::parse(frame) {
-                    if req.addresses(self.core.node_id) {
+                if let Some(req) = NmtRequest::parse(frame.payload()) {
+                    if req.addresses(self.ctx.node_id) {
                         self.on_nmt(req.command, now);
                     }
                 }
             }
             CanId::Std(x) if x == 0x600 + id => {
-                if !frame.rtr && self.core.nmt.sdo_allowed() {
-                    let Node { core, device, sdo } = self;
-                    let response = sdo.on_request(frame.payload(), now, &mut Dict { core, device });
+                if !frame.rtr && self.nmt.sdo_allowed() {
+                    let Node { ctx, device, sdo, nmt, heartbeat, guarding, pdo, lss, .. } = self;
+                    let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
+                    let mut access = Access { ctx, device, services: &mut services };
+                    let response = sdo.on_request(frame.payload(), now, &mut access);
                     self.send_sdo(response);
                 }
             }
             CanId::Std(x) if x == 0x700 + id => {
                 if frame.rtr {
-                    guarding::on_rtr(&mut self.core, frame, now);
+                    self.on_guarding_rtr(now);
                 }
             }
-            _ => match pdo::on_frame(&mut self.core, frame, now) {
-                PdoEvent::None | PdoEvent::Rtr(_) => {}
+            _ => match self.pdo.on_frame(&mut self.ctx, self.nmt, frame, now) {
+                PdoEvent::None => {}
+                PdoEvent::Rtr(n) => {
+                    let answer = RtrAnswer::new(&self.pdo, n);
+                    self.device.on_tpdo_rtr(&mut self.ctx, n, &answer, now);
+                }
                 PdoEvent::Sync { rpdos } => {
                     for n in 0..pdo::MAX_RPDOS as u8 {
                         if rpdos & (1 << n) != 0 {
-                            self.device.on_rpdo(&mut self.core, n, now);
+                            self.device.on_rpdo(&mut self.ctx, n, now);
                         }
                     }
-                    self.device.on_sync(&mut self.core, now);
+                    self.device.on_sync(&mut self.ctx, now);
                 }
-                PdoEvent::Rpdo(n) => self.device.on_rpdo(&mut self.core, n, now),
-                PdoEvent::RpdoRtr(n) => self.device.on_rpdo_rtr(&mut self.core, n, now),
+                PdoEvent::Rpdo(n) => self.device.on_rpdo(&mut self.ctx, n, now),
+                PdoEvent::RpdoRtr(n) => {
+                    let reply = RtrReply::new(&self.pdo, n);
+                    self.device.on_rpdo_rtr(&mut self.ctx, n, &reply, now);
+                }
             },
         }
     }
@@ -361,43 +318,84 @@ impl<D: Device> Node<D> {
     /// raises or clears its EMCYs. EMCYs raised while the node cannot send (bus-off, STOPPED)
     /// follow the EMCY producer's rules.
     pub fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
-        self.device.on_bus_event(&mut self.core, event, now);
+        self.device.on_bus_event(&mut self.ctx, event, now);
     }
 
     /// Runs the timers due at `now`.
     pub fn poll(&mut self, now: Instant) {
-        let event = lss::poll(&mut self.core, now);
-        self.on_lss(event, now);
-        if !self.core.configured() || self.core.lss.switching() {
+        if let Some(scan) = &mut self.scan {
+            let first = scan.next_deadline() == Instant::ZERO;
+            if let Some(rate) = scan.poll(now).or(first.then(|| scan.rate())) {
+                self.ctx.bitrate = rate;
+                self.ctx.out.push(Output::SetBitrate(rate));
+            }
+            // The device runs meanwhile (the AP10T's display test), off the bus.
+            self.device.poll(&mut self.ctx, now);
             return;
         }
-        if self.core.nmt == NmtState::Initialising {
+        let event = self.lss.poll(&mut self.ctx, now);
+        if event != LssEvent::None {
+            self.on_lss(event, now);
+        }
+        if !self.ctx.configured() || self.lss.switching() {
+            return;
+        }
+        if self.nmt == NmtState::Initialising {
             self.boot_up(now);
         }
-        let timeout = self.sdo.poll(now);
-        self.send_sdo(timeout);
-        heartbeat::poll(&mut self.core, now);
-        guarding::poll(&mut self.core, now);
-        emcy::poll(&mut self.core, now);
-        pdo::poll(&mut self.core, now);
-        self.device.poll(&mut self.core, now);
+        if let Some(timeout) = self.sdo.poll(now) {
+            self.send_sdo(Some(timeout));
+        }
+        self.heartbeat.poll(&mut self.ctx.out, self.ctx.node_id, self.nmt, now);
+        if self.guarding.poll(now) {
+            self.notify();
+        }
+        self.ctx.release_deferred();
+        self.pdo.poll(&mut self.ctx, now);
+        self.device.poll(&mut self.ctx, now);
+        if self.device.has_requests() {
+            self.device_requests(now);
+        }
+    }
+
+    /// Carries out what the device asked for: the deferred SDO answer first (on the identifier
+    /// in use when it was asked), then the state change or the reset.
+    #[cold]
+    #[inline(never)]
+    fn device_requests(&mut self, now: Instant) {
+        let req = self.device.take_requests();
+        if let Some(result) = req.sdo {
+            let response = self.sdo.complete_deferred(result);
+            self.send_sdo(response);
+        }
+        if req.pre_operational && self.nmt == NmtState::Operational {
+            self.on_nmt(NmtCommand::EnterPreOperational, now);
+        }
+        if let Some(kind) = req.reset {
+            self.reset(kind, now);
+        }
     }
 
     /// When [`Node::poll`] must next run; `None` when nothing is scheduled.
     pub fn next_deadline(&self) -> Option<Instant> {
-        let core = &self.core;
-        let mut next = lss::next_deadline(core);
-        if core.lss.switching() {
+        if let Some(scan) = &self.scan {
+            return Some(scan.next_deadline());
+        }
+        if self.device.has_requests() {
+            return Some(Instant::ZERO);
+        }
+        let mut next = self.lss.next_deadline();
+        if self.lss.switching() {
             return next;
         }
-        if core.configured() {
-            if core.nmt == NmtState::Initialising {
+        if self.ctx.configured() {
+            if self.nmt == NmtState::Initialising {
                 return Some(Instant::ZERO);
             }
             next = earliest(next, self.sdo.next_deadline());
-            next = earliest(next, heartbeat::next_deadline(core));
-            next = earliest(next, guarding::next_deadline(core));
-            next = earliest(next, pdo::next_deadline(core));
+            next = earliest(next, self.heartbeat.next_deadline());
+            next = earliest(next, self.guarding.next_deadline());
+            next = earliest(next, self.pdo.next_deadline());
         }
         earliest(next, self.device.next_deadline())
     }
@@ -408,18 +406,17 @@ impl<D: Device> Node<D> {
     /// (data and remote) and the valid TPDOs that accept a remote request (remote). Without
     /// duplicates; frames of any other kind the node ignores, so a filter that passes exactly
     /// these loses nothing. It changes only when [`Node::rx_ids_generation`] does.
-    pub fn rx_ids(&self) -> heapless::Vec<RxId, MAX_RX_IDS> {
+    pub fn rx_ids(&self) -> RxIds {
         let mut ids = heapless::Vec::new();
-        let core = &self.core;
-        if core.lss.enabled() {
+        if self.lss.enabled() {
             let _ = ids.push(RxId::data(CanId::Std(lss::RX_ID)));
         }
-        if core.configured() {
-            let id = core.node_id as u16;
+        if self.ctx.configured() {
+            let id = self.ctx.node_id as u16;
             let _ = ids.push(RxId::data(CanId::Std(0x000)));
             let _ = ids.push(RxId::data(CanId::Std(0x600 + id)));
             let _ = ids.push(RxId::remote(CanId::Std(0x700 + id)));
-            core.pdo.rx_ids(&mut ids);
+            self.pdo.rx_ids(&mut ids);
         }
         ids
     }
@@ -427,14 +424,14 @@ impl<D: Device> Node<D> {
     /// A number that changes whenever [`Node::rx_ids`] may have changed (node-ID, 1005h, PDO
     /// COB-IDs, every reset): the shell reprograms its filters when it sees a new one.
     pub fn rx_ids_generation(&self) -> u32 {
-        self.core.pdo.generation()
+        self.pdo.generation()
     }
 
     /// The shell has finished (or failed) the [`Output::Store`] it was given.
     /// The result goes to whoever asked: LSS store configuration, else the SDO server (1010h).
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
-        storage::store_done(&mut self.core, result.is_ok(), now);
-        if lss::store_done(&mut self.core, result.is_ok()) {
+        self.ctx.store_done(result.is_ok(), now);
+        if self.lss.store_done(&mut self.ctx, result.is_ok()) {
             return;
         }
         let response = self.sdo.complete_deferred(result.map_err(|()| Abort::CANNOT_STORE));
@@ -443,78 +440,118 @@ impl<D: Device> Node<D> {
 
     fn send_sdo(&mut self, response: Option<[u8; 8]>) {
         if let Some(data) = response {
-            self.core.out.send(Frame::std(0x580 + self.core.node_id as u16, &data));
+            self.ctx.out.send(Frame::std(0x580 + self.ctx.node_id as u16, &data));
         }
     }
 
+    /// A node-guarding RTR: guarding answers unless the heartbeat runs.
+    #[inline(never)]
+    fn on_guarding_rtr(&mut self, now: Instant) {
+        let heartbeat = self.heartbeat.active();
+        if self.guarding.on_rtr(&mut self.ctx.out, self.ctx.node_id, self.nmt, heartbeat, now) {
+            self.notify();
+        }
+    }
+
+    #[cold]
+    #[inline(never)]
     fn on_lss(&mut self, event: LssEvent, now: Instant) {
         match event {
             LssEvent::None => {}
+            LssEvent::Switching => {
+                self.set_nmt(NmtState::Initialising);
+                self.notify();
+            }
             LssEvent::ResetCommunication => self.reset(ResetKind::Communication, now),
             // Communication restarts on the new bit rate: `poll` sends the boot-up next.
             LssEvent::BootUp => {
-                self.core.nmt = NmtState::Initialising;
+                self.set_nmt(NmtState::Initialising);
                 self.sdo.reset();
+                self.notify();
             }
         }
     }
 
     fn on_nmt(&mut self, command: NmtCommand, now: Instant) {
-        let state = &mut self.core.nmt;
         match command {
-            NmtCommand::Start => *state = NmtState::Operational,
+            NmtCommand::Start => self.set_nmt(NmtState::Operational),
             NmtCommand::Stop => {
-                *state = NmtState::Stopped;
+                self.set_nmt(NmtState::Stopped);
                 self.sdo.reset();
             }
-            NmtCommand::EnterPreOperational => *state = NmtState::PreOperational,
+            NmtCommand::EnterPreOperational => self.set_nmt(NmtState::PreOperational),
             NmtCommand::ResetNode => self.reset(ResetKind::Node, now),
             NmtCommand::ResetCommunication => self.reset(ResetKind::Communication, now),
         }
-        pdo::on_state(&mut self.core, now);
+        self.pdo.on_state(&self.ctx.od, self.nmt, now);
+        self.notify();
+        self.device.on_nmt(&mut self.ctx, self.nmt, now);
     }
 
+    #[cold]
+    #[inline(never)]
     fn reset(&mut self, kind: ResetKind, now: Instant) {
-        self.core.nmt = NmtState::Initialising;
+        self.set_nmt(NmtState::Initialising);
         self.sdo.reset();
         let device = &self.device;
-        storage::reload(&mut self.core, kind, |e, groups| device.restores(e, groups));
+        self.ctx.reload(kind, |e, groups| device.restores(e, groups));
         self.activate_pending();
-        sdo_cob_ids(&mut self.core);
+        sdo_cob_ids(&mut self.ctx);
         // The reloaded PDO configuration and node-ID count from now (filters, caches).
-        pdo::reset(&mut self.core, now);
-        lss::reset(&mut self.core);
-        self.device.on_reset(&mut self.core, kind, now);
+        self.pdo.reset(&self.ctx.od, now);
+        self.lss.reset();
+        self.device.on_reset(&mut self.ctx, kind, now);
         // After the device has re-evaluated its conditions on the reloaded dictionary: the
         // EMCYs announced after the boot-up are the conditions that still hold, not a stale
         // code and its 0000h for one the reset removed (issue 13 point 14, D-EMCY-8).
-        emcy::reset(&mut self.core);
+        self.ctx.errors.defer_active();
+        self.notify();
     }
 
     /// A reset activates the pending node-ID and bit rate (5F0Ah and alike, set by SDO or
     /// LSS). Node-ID FFh is LSS "unconfigured": the node then answers LSS only.
     fn activate_pending(&mut self) {
-        if let Some(id) = storage::pending(&self.core.od, CoreHook::PendingNodeId) {
+        if let Some(id) = storage::pending(&self.ctx.od, CoreHook::PendingNodeId) {
             if (1..=127).contains(&id) || id == lss::UNCONFIGURED as u32 {
-                self.core.node_id = id as u8;
+                self.ctx.node_id = id as u8;
             }
         }
-        if let Some(rate) = pending_bitrate(&self.device, &self.core.od) {
+        if let Some(rate) = pending_bitrate(&self.device, &self.ctx.od) {
             // A rate LSS configured waits for activate bit timing or a power cycle (D-LSS-15).
-            if rate != self.core.bitrate && !lss::rate_awaits_activation(&self.core) {
-                self.core.bitrate = rate;
-                self.core.out.push(Output::SetBitrate(rate));
+            if rate != self.ctx.bitrate && !self.lss.rate_awaits_activation(&self.ctx.od) {
+                self.ctx.bitrate = rate;
+                self.ctx.out.push(Output::SetBitrate(rate));
             }
         }
     }
 
+    #[cold]
+    #[inline(never)]
     fn boot_up(&mut self, now: Instant) {
-        self.core.out.send(Frame::std(0x700 + self.core.node_id as u16, &[0x00]));
-        self.core.nmt = NmtState::PreOperational;
-        heartbeat::reset(&mut self.core, now);
-        guarding::reset(&mut self.core);
-        pdo::reset(&mut self.core, now);
-        storage::boot_up(&mut self.core, now);
+        let boot_up = ErrorControl { state: nmt_wire::BOOT_UP, toggle: false };
+        self.ctx.out.send(Frame::std(0x700 + self.ctx.node_id as u16, &boot_up.emit()));
+        self.set_nmt(NmtState::PreOperational);
+        self.heartbeat.reset(&self.ctx.od, now);
+        self.guarding.reset(&self.ctx.od);
+        self.pdo.reset(&self.ctx.od, now);
+        self.ctx.boot_up(now);
+        self.notify();
+    }
+
+    /// Writes `data` to (index, sub) through the dictionary access path, as an SDO download
+    /// does (checks, the services' and the device's rules, the value), whatever the NMT state:
+    /// for a device's own user interface and for tests. Nothing changes on `Err`. A 1010h save
+    /// answers `Written::Deferred` and completes at [`Node::store_done`].
+    pub fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
+        let Node { ctx, device, nmt, heartbeat, guarding, pdo, lss, .. } = self;
+        let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
+        access::write(ctx, device, &mut services, index, sub, data, now)
+    }
+
+    /// Test access to the parts (a service's state beside the context).
+    #[cfg(test)]
+    pub(crate) fn parts(&mut self) -> (&mut Context, &mut NmtState, &mut Pdos) {
+        (&mut self.ctx, &mut self.nmt, &mut self.pdo)
     }
 }
 
@@ -522,12 +559,12 @@ impl<D: Device> Node<D> {
 /// that default for the active node-ID: 1200h sub 1/2, the read-only SDO COB-IDs ("600h +
 /// Node-ID", "580h + Node-ID"), always name the identifiers the SDO server uses, also after a
 /// reset that activated a new node-ID (issue 13 point 8, D-SDO-7). Stored COB-IDs (1014h,
-/// PDOs) follow the node-ID through `storage::reload` instead.
-fn sdo_cob_ids(core: &mut Core) {
-    let id = core.node_id;
-    for (pos, e) in core.od.table().iter().enumerate() {
+/// PDOs) follow the node-ID through the reload instead.
+fn sdo_cob_ids(ctx: &mut Context) {
+    let id = ctx.node_id;
+    for (pos, e) in ctx.od.table().iter().enumerate() {
         if e.group == Group::None && matches!(e.default, OdDefault::PlusNodeId(_)) {
-            core.od.set(pos, e.default_value(id));
+            ctx.od.set(pos, e.default_value(id));
         }
     }
 }
@@ -538,75 +575,85 @@ fn pending_bitrate<D: Device>(device: &D, od: &Od) -> Option<Bitrate> {
     device.bitrate_codes().iter().find(|(c, _)| *c == code).map(|(_, b)| *b)
 }
 
-/// The dictionary as the SDO server sees it: checks, hooks, then the value.
-struct Dict<'a, D: Device> {
-    core: &'a mut Core,
-    device: &'a mut D,
-}
-
-impl<D: Device> ObjectAccess for Dict<'_, D> {
-    fn read_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort> {
-        let pos = self.core.od.find(index, sub)?;
-        self.core.od.check_read(pos)?;
-        emcy::check_read(self.core, index, sub)?;
-        Ok(self.core.od.entry(pos).size())
+impl<D: CanopenDevice> Station for Node<D> {
+    fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        Node::on_frame(self, frame, now)
     }
-
-    fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort> {
-        let pos = self.core.od.find(index, sub)?;
-        self.core.od.check_read(pos)?;
-        emcy::check_read(self.core, index, sub)?;
-        Ok(self.core.od.encode(pos, buf))
+    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        Node::on_bus_event(self, event, now)
     }
-
-    fn write_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort> {
-        let pos = self.core.od.find(index, sub)?;
-        Ok(self.core.od.entry(pos).size())
+    fn poll(&mut self, now: Instant) {
+        Node::poll(self, now)
     }
-
-    fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
-        let pos = self.core.od.find(index, sub)?;
-        let value = self.core.od.check_write(pos, data)?;
-        let hook = self.core.od.entry(pos).hook;
-        let written = match hook {
-            Hook::None => Written::Done,
-            Hook::Core(hook) => core_write(self.core, hook, pos, value, now)?,
-            Hook::Device(_) => {
-                self.device.on_write(self.core, pos, value, now)?;
-                Written::Done
-            }
-        };
-        // 1010h/1011h signatures are commands: the entries keep reading their capabilities.
-        if !matches!(hook, Hook::Core(CoreHook::Store | CoreHook::Restore)) {
-            self.core.od.set(pos, value);
-        }
-        Ok(written)
+    fn next_deadline(&self) -> Option<Instant> {
+        Node::next_deadline(self)
+    }
+    fn next_output(&mut self) -> Option<Output> {
+        Node::next_output(self)
+    }
+    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        Node::store_done(self, result, now)
+    }
+    fn rx_ids(&self) -> RxIds {
+        Node::rx_ids(self)
+    }
+    fn rx_ids_generation(&self) -> u32 {
+        Node::rx_ids_generation(self)
+    }
+    fn context(&self) -> &Context {
+        &self.ctx
+    }
+    fn listen_only(&self) -> bool {
+        Node::listen_only(self)
     }
 }
 
-/// Checks a write to an entry with a core hook and applies its side effect. On `Ok` the
-/// caller stores the value (except the 1010h/1011h commands). Each service owns its rules.
-fn core_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Instant) -> Result<Written, Abort> {
-    match hook {
-        CoreHook::Store => storage::on_store(core, pos, value),
-        CoreHook::Restore => storage::on_restore(core, pos, value),
-        CoreHook::ErrorHistory | CoreHook::EmcyCobId => {
-            emcy::on_write(core, hook, pos, value, now).map(|()| Written::Done)
+impl<D: CanopenDevice> DeviceStation for Node<D> {
+    type Device = D;
+    fn device(&self) -> &D {
+        &self.device
+    }
+    fn split(&mut self) -> (&mut D, &mut Context) {
+        (&mut self.device, &mut self.ctx)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::devices::sgh10;
+
+    struct T;
+    impl Device for T {
+        fn table(&self) -> &'static [crate::od::Entry] {
+            sgh10::TABLE
         }
-        CoreHook::Guarding => guarding::on_write(core, pos, value, now).map(|()| Written::Done),
-        CoreHook::HeartbeatTime => heartbeat::on_write(core, value, now).map(|()| Written::Done),
-        CoreHook::SyncCobId
-        | CoreHook::PdoCobId
-        | CoreHook::PdoTransmissionType
-        | CoreHook::PdoEventTimer
-        | CoreHook::PdoMapping => pdo::on_write(core, hook, pos, value, now).map(|()| Written::Done),
-        // 5F0Ah and alike hold the pending node-ID and bit-rate code: storing the value (its
-        // range is the entry's limits) is the whole write; the next reset activates it.
-        CoreHook::PendingNodeId => Ok(Written::Done),
-        CoreHook::PendingBitrate => {
-            // An SDO-written rate is adopted at the next reset, also over an LSS-configured one.
-            lss::rate_written(core);
-            Ok(Written::Done)
+    }
+    impl CanopenDevice for T {}
+
+    fn rtr(node: &mut Node<T>, ms: u64) -> Option<u8> {
+        node.on_frame(&Frame::remote(CanId::Std(0x701), 1), Instant::from_millis(ms));
+        match node.next_output() {
+            Some(Output::Frame(f)) => Some(f.data[0]),
+            _ => None,
         }
+    }
+
+    /// The node passes the heartbeat's state to guarding: one error-control protocol at a time.
+    #[test]
+    fn heartbeat_excludes_guarding() {
+        let mut node = Node::new(T, 1, Bitrate::K500);
+        node.poll(Instant::ZERO);
+        node.next_output();
+        let at = Instant::from_millis;
+        node.write(0x100C, 0, &100u16.to_le_bytes(), at(0)).unwrap();
+        node.write(0x100D, 0, &[2], at(0)).unwrap();
+        assert_eq!(rtr(&mut node, 0), Some(0x7F));
+        assert_eq!(node.guarding().next_deadline(), Some(at(200)));
+        node.write(0x1017, 0, &1000u16.to_le_bytes(), at(5)).unwrap();
+        assert_eq!(node.guarding().next_deadline(), None);
+        assert_eq!(rtr(&mut node, 10), None);
+        node.write(0x1017, 0, &0u16.to_le_bytes(), at(20)).unwrap();
+        assert_eq!(rtr(&mut node, 30), Some(0xFF));
     }
 }

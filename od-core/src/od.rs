@@ -78,12 +78,15 @@ pub enum Access {
     Rw,
     /// Constant.
     Const,
+    /// No SDO access at all: the entry exists to be mapped into a PDO (the AP10T's 5F1Dh, access
+    /// "no" in its manual). A read or write answers 06010000h.
+    PdoOnly,
 }
 
 impl Access {
     /// May an SDO client read it?
     pub const fn readable(self) -> bool {
-        !matches!(self, Access::Wo)
+        !matches!(self, Access::Wo | Access::PdoOnly)
     }
     /// May an SDO client write it?
     pub const fn writable(self) -> bool {
@@ -129,6 +132,11 @@ impl GroupMask {
     /// Only the pending node-ID and bit rate (the entries hooked `PendingNodeId` and
     /// `PendingBitrate`): what LSS "store configuration" persists.
     pub const LSS: GroupMask = GroupMask(16);
+    /// Only the pending node-ID (the entry hooked `PendingNodeId`): what the AP10T's Auto-ID
+    /// and its key menu's `ID` keep.
+    pub const NODE_ID: GroupMask = GroupMask(32);
+    /// Only the pending bit-rate code (hooked `PendingBitrate`): what the AP10T's `KBAUD` keeps.
+    pub const BITRATE: GroupMask = GroupMask(64);
     /// The groups a 1010h/1011h subindex selects (1 all, 2 comm, 3 app, 4 manufacturer).
     pub const fn from_subindex(sub: u8) -> Option<GroupMask> {
         match sub {
@@ -536,10 +544,10 @@ impl Od {
 
     /// Checks that `pos` may be read by an SDO client.
     pub fn check_read(&self, pos: usize) -> Result<(), Abort> {
-        if self.table[pos].access.readable() {
-            Ok(())
-        } else {
-            Err(Abort::WRITE_ONLY)
+        match self.table[pos].access {
+            Access::PdoOnly => Err(Abort::UNSUPPORTED_ACCESS),
+            a if a.readable() => Ok(()),
+            _ => Err(Abort::WRITE_ONLY),
         }
     }
 
@@ -547,6 +555,9 @@ impl Od {
     /// limits; returns the raw value to store. Nothing is changed.
     pub fn check_write(&self, pos: usize, data: &[u8]) -> Result<u32, Abort> {
         let e = &self.table[pos];
+        if e.access == Access::PdoOnly {
+            return Err(Abort::UNSUPPORTED_ACCESS);
+        }
         if !e.access.writable() {
             return Err(Abort::READ_ONLY);
         }
@@ -589,6 +600,7 @@ mod tests {
         Entry::member(0x1018, 3, "Revision", DataType::Unsigned32, Access::Ro, 7),
         Entry::var(0x6401, "Limit", DataType::Integer32, Access::Rw, -5i32 as u32).range(-10, 10),
         Entry::var(0x6402, "Cmd", DataType::Unsigned8, Access::Wo, 0),
+        Entry::var(0x6403, "Mapped only", DataType::Unsigned32, Access::PdoOnly, 0).pdo(),
     ];
 
     #[test]
@@ -624,6 +636,8 @@ mod tests {
         assert_eq!(od.check_write(6, &11i32.to_le_bytes()), Err(Abort::INVALID_VALUE));
         assert_eq!(od.check_write(6, &(-10i32).to_le_bytes()), Ok(-10i32 as u32));
         assert_eq!(od.check_read(7), Err(Abort::WRITE_ONLY));
+        assert_eq!(od.check_read(8), Err(Abort::UNSUPPORTED_ACCESS));
+        assert_eq!(od.check_write(8, &[0; 4]), Err(Abort::UNSUPPORTED_ACCESS));
         assert_eq!(od.get(6), -5i32 as u32);
     }
 }

@@ -4,17 +4,17 @@
 //! The configuration lives in the dictionary (1005h, 14xxh/16xxh, 18xxh/1Axxh); [`Pdos`]
 //! keeps a copy resolved for speed: identifiers as [`CanId`]s and every mapping as a list of
 //! (dictionary position, byte count), so a SYNC packs a TPDO without a dictionary search.
-//! The copy is taken at boot-up ([`reset`]) and kept current by the write rules
-//! ([`on_write`]), which every SDO write to a hooked PDO entry passes first.
+//! The copy is taken at boot-up ([`Pdos::reset`]) and kept current by the write rules
+//! ([`Pdos::on_write`]), which every SDO write to a hooked PDO entry passes first.
 //!
 //! Which transmission types a PDO accepts, when a COB-ID or a mapping may change and how the
 //! event timer behaves follow the SIKO manuals and CiA 301 as `docs/decisions.md`
 //! ("SYNC and PDO", D-PDO-n) records.
 
 use crate::abort::Abort;
+use crate::context::Context;
 use crate::frame::{CanId, Frame, RxId};
 use crate::nmt::NmtState;
-use crate::node::Core;
 use crate::od::{CoreHook, DataType, Od, MAX_ENTRIES};
 use crate::time::Instant;
 
@@ -46,6 +46,46 @@ pub const TYPE_ASYNC_PROFILE: u8 = 0xFF;
 const _: () = assert!(MAX_ENTRIES < NONE as usize);
 const NONE: u8 = 0xFF;
 
+/// The answer to a remote request on an RPDO, as the device gives it
+/// ([`crate::device::CanopenDevice::on_rpdo_rtr`]): [`RtrReply::send`] puts a TPDO's current
+/// data on the RPDO's identifier, at the moment the device calls it.
+pub struct RtrReply<'a> {
+    pdos: &'a Pdos,
+    rpdo: u8,
+}
+
+impl<'a> RtrReply<'a> {
+    /// The reply to a remote request on RPDO `rpdo` (0-based).
+    pub fn new(pdos: &'a Pdos, rpdo: u8) -> RtrReply<'a> {
+        RtrReply { pdos, rpdo }
+    }
+
+    /// Sends TPDO `tpdo`'s current data (0-based) on the RPDO's identifier ([`Pdos::reply`]).
+    pub fn send(&self, ctx: &mut Context, tpdo: u8) {
+        self.pdos.reply(ctx, self.rpdo, tpdo);
+    }
+}
+
+/// The answer to a remote request on a TPDO, as the device gives it
+/// ([`crate::device::CanopenDevice::on_tpdo_rtr`]): [`RtrAnswer::send`] puts the TPDO's data
+/// on its identifier ([`Pdos::answer_rtr`]), at the moment the device calls it.
+pub struct RtrAnswer<'a> {
+    pdos: &'a Pdos,
+    tpdo: u8,
+}
+
+impl<'a> RtrAnswer<'a> {
+    /// The answer to a remote request on TPDO `tpdo` (0-based).
+    pub fn new(pdos: &'a Pdos, tpdo: u8) -> RtrAnswer<'a> {
+        RtrAnswer { pdos, tpdo }
+    }
+
+    /// Sends the TPDO's data (sampled at the last SYNC for type FCh, else current).
+    pub fn send(&self, ctx: &mut Context) {
+        self.pdos.answer_rtr(ctx, self.tpdo);
+    }
+}
+
 /// What a received frame was for the PDO layer.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum PdoEvent {
@@ -60,10 +100,12 @@ pub enum PdoEvent {
     /// RPDO `n` (0-based) was written into the dictionary.
     Rpdo(u8),
     /// A remote frame asked for RPDO `n` (0-based) in OPERATIONAL. CiA 301 has no answer; a
-    /// device that answers (the AP10T returns its set points) does so in `Device::on_rpdo_rtr`
-    /// with [`reply`].
+    /// device that answers (the AP10T returns its set points) does so in
+    /// `CanopenDevice::on_rpdo_rtr` with an [`RtrReply`].
     RpdoRtr(u8),
-    /// A remote frame asked for TPDO `n` (0-based), which was sent.
+    /// A remote frame asked for TPDO `n` (0-based), which accepts it (OPERATIONAL, COB-ID
+    /// bit 30 = 0): the node answers through `CanopenDevice::on_tpdo_rtr`, by default with
+    /// [`Pdos::answer_rtr`] (the AP10T adds its data identifier to the answer).
     Rtr(u8),
 }
 
@@ -236,7 +278,7 @@ impl Pdos {
     }
 
     /// The frames the PDO layer receives: SYNC (data), each valid RPDO (data, and remote: the
-    /// device may answer an RPDO remote request, [`crate::node::Device::on_rpdo_rtr`]), and each
+    /// device may answer an RPDO remote request, [`crate::device::CanopenDevice::on_rpdo_rtr`]), and each
     /// valid TPDO that accepts a remote request (remote). Pushed into `out` (duplicates and
     /// overflow skipped).
     pub fn rx_ids<const N: usize>(&self, out: &mut heapless::Vec<RxId, N>) {
@@ -276,242 +318,411 @@ impl Pdos {
     }
 }
 
-/// Re-reads the PDO configuration from the dictionary (boot-up after power-on and every NMT
-/// reset). The node is PRE-OPERATIONAL: nothing runs, SYNC counters start from zero.
-pub fn reset(core: &mut Core, now: Instant) {
-    let _ = now;
-    let od = &core.od;
-    let p = &mut core.pdo;
-    let generation = p.generation.wrapping_add(1);
-    *p = Pdos { generation, ..Pdos::default() };
-    p.sync = od.pos(0x1005, 0).map(|pos| CanId::from_cob_id(od.get(pos)));
-    for n in 0..MAX_TPDOS as u16 {
-        let Some(params) = Params::load(od, 0x1800 + n) else { break };
-        let cob = od.get(params.cob as usize);
-        let map = resolve(od, 0x1A00 + n, None, false).unwrap_or(Mapping::EMPTY);
-        let t = &mut p.tpdo[n as usize];
-        *t = Tpdo { params, map, ttype: Params::get(od, params.ttype, TYPE_ASYNC_PROFILE as u32) as u8, ..Tpdo::EMPTY };
-        set_tpdo_cob(t, cob);
-        p.ntpdo += 1;
+impl Pdos {
+    /// Re-reads the PDO configuration from the dictionary (boot-up after power-on and every NMT
+    /// reset). The node is PRE-OPERATIONAL: nothing runs, SYNC counters start from zero.
+    pub fn reset(&mut self, od: &Od, now: Instant) {
+        let _ = now;
+        let p = &mut *self;
+        let generation = p.generation.wrapping_add(1);
+        *p = Pdos { generation, ..Pdos::default() };
+        p.sync = od.pos(0x1005, 0).map(|pos| CanId::from_cob_id(od.get(pos)));
+        for n in 0..MAX_TPDOS as u16 {
+            let Some(params) = Params::load(od, 0x1800 + n) else { break };
+            let cob = od.get(params.cob as usize);
+            let map = resolve(od, 0x1A00 + n, None, false).unwrap_or(Mapping::EMPTY);
+            let t = &mut p.tpdo[n as usize];
+            *t = Tpdo {
+                params,
+                map,
+                ttype: Params::get(od, params.ttype, TYPE_ASYNC_PROFILE as u32) as u8,
+                ..Tpdo::EMPTY
+            };
+            set_tpdo_cob(t, cob);
+            p.ntpdo += 1;
+        }
+        for n in 0..MAX_RPDOS as u16 {
+            let Some(params) = Params::load(od, 0x1400 + n) else { break };
+            let cob = od.get(params.cob as usize);
+            let map = resolve(od, 0x1600 + n, None, true).unwrap_or(Mapping::EMPTY);
+            let r = &mut p.rpdo[n as usize];
+            *r = Rpdo {
+                params,
+                map,
+                ttype: Params::get(od, params.ttype, TYPE_ASYNC_PROFILE as u32) as u8,
+                ..Rpdo::EMPTY
+            };
+            set_rpdo_cob(r, cob);
+            p.nrpdo += 1;
+        }
     }
-    for n in 0..MAX_RPDOS as u16 {
-        let Some(params) = Params::load(od, 0x1400 + n) else { break };
-        let cob = od.get(params.cob as usize);
-        let map = resolve(od, 0x1600 + n, None, true).unwrap_or(Mapping::EMPTY);
-        let r = &mut p.rpdo[n as usize];
-        *r = Rpdo { params, map, ttype: Params::get(od, params.ttype, TYPE_ASYNC_PROFILE as u32) as u8, ..Rpdo::EMPTY };
-        set_rpdo_cob(r, cob);
-        p.nrpdo += 1;
-    }
-}
 
-/// Starts or stops the PDOs after an NMT state change: entering OPERATIONAL restarts the SYNC
-/// counters and the event timers (first transmission one period later); leaving it stops
-/// everything and drops synchronous RPDO data not yet applied.
-pub fn on_state(core: &mut Core, now: Instant) {
-    let operational = core.nmt == NmtState::Operational;
-    let p = &mut core.pdo;
-    if operational == p.running {
-        return;
+    /// Starts or stops the PDOs after an NMT state change: entering OPERATIONAL restarts the SYNC
+    /// counters and the event timers (first transmission one period later); leaving it stops
+    /// everything and drops synchronous RPDO data not yet applied.
+    pub fn on_state(&mut self, od: &Od, nmt: NmtState, now: Instant) {
+        let operational = nmt == NmtState::Operational;
+        let p = &mut *self;
+        if operational == p.running {
+            return;
+        }
+        p.running = operational;
+        for t in p.tpdo[..p.ntpdo as usize].iter_mut() {
+            t.count = 0;
+            t.sample = None;
+            t.last = None;
+            t.next = if operational { first_event(od, t, now) } else { None };
+        }
+        for r in p.rpdo[..p.nrpdo as usize].iter_mut() {
+            r.pending = None;
+        }
+        p.update_deadline();
     }
-    p.running = operational;
-    let od = &core.od;
-    for t in p.tpdo[..p.ntpdo as usize].iter_mut() {
-        t.count = 0;
-        t.sample = None;
-        t.last = None;
-        t.next = if operational { first_event(od, t, now) } else { None };
-    }
-    for r in p.rpdo[..p.nrpdo as usize].iter_mut() {
-        r.pending = None;
-    }
-    p.update_deadline();
-}
 
-/// Handles a frame that may be a SYNC, an RPDO or a PDO remote request.
-pub fn on_frame(core: &mut Core, frame: &Frame, now: Instant) -> PdoEvent {
-    if core.pdo.sync == Some(frame.id) && !frame.rtr {
-        return on_sync(core);
-    }
-    if !core.pdo.running {
-        return PdoEvent::None;
-    }
-    let p = &mut core.pdo;
-    if frame.rtr {
-        for n in 0..p.ntpdo as usize {
-            let t = &p.tpdo[n];
-            if t.valid && t.id == frame.id {
-                if !t.rtr || !t.map.ok {
-                    return PdoEvent::None;
+    /// Handles a frame that may be a SYNC, an RPDO or a PDO remote request.
+    pub fn on_frame(&mut self, ctx: &mut Context, nmt: NmtState, frame: &Frame, now: Instant) -> PdoEvent {
+        if self.sync == Some(frame.id) && !frame.rtr {
+            return self.on_sync(ctx, nmt);
+        }
+        if !self.running {
+            return PdoEvent::None;
+        }
+        let p = &mut *self;
+        if frame.rtr {
+            for n in 0..p.ntpdo as usize {
+                let t = &p.tpdo[n];
+                if t.valid && t.id == frame.id {
+                    if !t.rtr || !t.map.ok {
+                        return PdoEvent::None;
+                    }
+                    return PdoEvent::Rtr(n as u8);
                 }
-                let data = t.sample.unwrap_or_else(|| pack(&core.od, &t.map));
-                let (id, len) = (t.id, t.map.len);
-                core.out.send(Frame { id, rtr: false, len, data });
-                return PdoEvent::Rtr(n as u8);
             }
+            for n in 0..p.nrpdo as usize {
+                let r = &p.rpdo[n];
+                if r.valid && r.id == frame.id {
+                    return PdoEvent::RpdoRtr(n as u8);
+                }
+            }
+            return PdoEvent::None;
         }
         for n in 0..p.nrpdo as usize {
-            let r = &p.rpdo[n];
-            if r.valid && r.id == frame.id {
-                return PdoEvent::RpdoRtr(n as u8);
-            }
-        }
-        return PdoEvent::None;
-    }
-    for n in 0..p.nrpdo as usize {
-        let r = &mut p.rpdo[n];
-        if !(r.valid && r.id == frame.id) {
-            continue;
-        }
-        // CiA 301: fewer bytes than mapped → not processed; more → the first ones are used.
-        if !r.map.ok || frame.len < r.map.len {
-            return PdoEvent::None;
-        }
-        if r.ttype <= 240 {
-            r.pending = Some(frame.data);
-            return PdoEvent::None;
-        }
-        let map = r.map;
-        return if apply(&mut core.od, &map, &frame.data) { PdoEvent::Rpdo(n as u8) } else { PdoEvent::None };
-    }
-    let _ = now;
-    PdoEvent::None
-}
-
-fn on_sync(core: &mut Core) -> PdoEvent {
-    let p = &mut core.pdo;
-    if !p.running {
-        // PRE-OPERATIONAL consumes SYNC (the device may use it); STOPPED does not.
-        return if core.nmt == NmtState::PreOperational { PdoEvent::Sync { rpdos: 0 } } else { PdoEvent::None };
-    }
-    for t in p.tpdo[..p.ntpdo as usize].iter_mut() {
-        if !t.valid || !t.map.ok {
-            continue;
-        }
-        match t.ttype {
-            1..=240 => {
-                t.count += 1;
-                if t.count >= t.ttype {
-                    t.count = 0;
-                    let data = pack(&core.od, &t.map);
-                    core.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
-                }
-            }
-            TYPE_SYNC_RTR => t.sample = Some(pack(&core.od, &t.map)),
-            _ => {}
-        }
-    }
-    let mut rpdos = 0;
-    for n in 0..p.nrpdo as usize {
-        if let Some(data) = p.rpdo[n].pending.take() {
-            let map = p.rpdo[n].map;
-            if apply(&mut core.od, &map, &data) {
-                rpdos |= 1 << n;
-            }
-        }
-    }
-    PdoEvent::Sync { rpdos }
-}
-
-/// Sends the event-timer TPDOs that are due.
-pub fn poll(core: &mut Core, now: Instant) {
-    let p = &mut core.pdo;
-    if !p.running || p.deadline.is_none_or(|d| d > now) {
-        return;
-    }
-    for t in p.tpdo[..p.ntpdo as usize].iter_mut() {
-        let Some(due) = t.next else { continue };
-        if due > now {
-            continue;
-        }
-        // The inhibit time (100 µs units) holds the transmission back, if declared.
-        let inhibit = Params::get(&core.od, t.params.inhibit, 0) as u64 * 100;
-        if let Some(last) = t.last {
-            let free = last.add_micros(inhibit);
-            if inhibit > 0 && free > now {
-                t.next = Some(free);
+            let r = &mut p.rpdo[n];
+            if !(r.valid && r.id == frame.id) {
                 continue;
             }
-        }
-        if t.valid && t.map.ok {
-            let data = pack(&core.od, &t.map);
-            core.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
-            t.last = Some(now);
-        }
-        // A changed event timer takes effect now, at the timer's next operation (manuals).
-        let period = Params::get(&core.od, t.params.event, 0) as u64;
-        t.next = match period {
-            0 => None,
-            ms => {
-                let next = due.add_millis(ms);
-                Some(if next > now { next } else { now.add_millis(ms) })
+            // CiA 301: fewer bytes than mapped → not processed; more → the first ones are used.
+            if !r.map.ok || frame.len < r.map.len {
+                return PdoEvent::None;
             }
+            if r.ttype <= 240 {
+                r.pending = Some(frame.data);
+                return PdoEvent::None;
+            }
+            let map = r.map;
+            return if apply(&mut ctx.od, &map, &frame.data) { PdoEvent::Rpdo(n as u8) } else { PdoEvent::None };
+        }
+        let _ = now;
+        PdoEvent::None
+    }
+
+    fn on_sync(&mut self, ctx: &mut Context, nmt: NmtState) -> PdoEvent {
+        let p = &mut *self;
+        if !p.running {
+            // PRE-OPERATIONAL consumes SYNC (the device may use it); STOPPED does not.
+            return if nmt == NmtState::PreOperational { PdoEvent::Sync { rpdos: 0 } } else { PdoEvent::None };
+        }
+        for t in p.tpdo[..p.ntpdo as usize].iter_mut() {
+            if !t.valid || !t.map.ok {
+                continue;
+            }
+            match t.ttype {
+                1..=240 => {
+                    t.count += 1;
+                    if t.count >= t.ttype {
+                        t.count = 0;
+                        let data = pack(&ctx.od, &t.map);
+                        ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
+                    }
+                }
+                TYPE_SYNC_RTR => t.sample = Some(pack(&ctx.od, &t.map)),
+                _ => {}
+            }
+        }
+        let mut rpdos = 0;
+        for n in 0..p.nrpdo as usize {
+            if let Some(data) = p.rpdo[n].pending.take() {
+                let map = p.rpdo[n].map;
+                if apply(&mut ctx.od, &map, &data) {
+                    rpdos |= 1 << n;
+                }
+            }
+        }
+        PdoEvent::Sync { rpdos }
+    }
+
+    /// Sends the event-timer TPDOs that are due.
+    pub fn poll(&mut self, ctx: &mut Context, now: Instant) {
+        let p = &mut *self;
+        if !p.running || p.deadline.is_none_or(|d| d > now) {
+            return;
+        }
+        for t in p.tpdo[..p.ntpdo as usize].iter_mut() {
+            let Some(due) = t.next else { continue };
+            if due > now {
+                continue;
+            }
+            // The inhibit time (100 µs units) holds the transmission back, if declared.
+            let inhibit = Params::get(&ctx.od, t.params.inhibit, 0) as u64 * 100;
+            if let Some(last) = t.last {
+                let free = last.add_micros(inhibit);
+                if inhibit > 0 && free > now {
+                    t.next = Some(free);
+                    continue;
+                }
+            }
+            if t.valid && t.map.ok {
+                let data = pack(&ctx.od, &t.map);
+                ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
+                t.last = Some(now);
+            }
+            // A changed event timer takes effect now, at the timer's next operation (manuals).
+            let period = Params::get(&ctx.od, t.params.event, 0) as u64;
+            t.next = match period {
+                0 => None,
+                ms => {
+                    let next = due.add_millis(ms);
+                    Some(if next > now { next } else { now.add_millis(ms) })
+                }
+            };
+        }
+        p.update_deadline();
+    }
+
+    /// When the next event-timer TPDO is due (`None` outside OPERATIONAL).
+    pub fn next_deadline(&self) -> Option<Instant> {
+        self.deadline
+    }
+
+    /// Sends TPDO `tpdo`'s current data on RPDO `rpdo`'s identifier: the answer to a remote
+    /// request on an RPDO (`PdoEvent::RpdoRtr`) for a device whose manual defines one (the AP10T
+    /// reads its set points back this way). Nothing is sent for a PDO that does not exist, is
+    /// invalid or outside OPERATIONAL.
+    pub fn reply(&self, ctx: &mut Context, rpdo: u8, tpdo: u8) {
+        self.reply_inner(ctx, rpdo, tpdo)
+    }
+
+    /// Answers a remote request for TPDO `n` ([`PdoEvent::Rtr`]): the data sampled at the
+    /// last SYNC (type FCh) or else its current data, on its identifier.
+    pub fn answer_rtr(&self, ctx: &mut Context, n: u8) {
+        let Some(t) = self.tpdos().get(n as usize) else { return };
+        if !t.valid || !t.map.ok {
+            return;
+        }
+        let data = t.sample.unwrap_or_else(|| pack(&ctx.od, &t.map));
+        ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
+    }
+
+    fn reply_inner(&self, ctx: &mut Context, rpdo: u8, tpdo: u8) {
+        let p = self;
+        let (Some(r), Some(t)) = (p.rpdos().get(rpdo as usize), p.tpdos().get(tpdo as usize)) else { return };
+        if !p.running || !r.valid || !t.map.ok {
+            return;
+        }
+        let frame = Frame { id: r.id, rtr: false, len: t.map.len, data: pack(&ctx.od, &t.map) };
+        ctx.out.send(frame);
+    }
+
+    /// Sets the event timer (18xxh.05) of TPDO `n` (0-based) to `ms`, with the checks and timing
+    /// of an SDO write: for a device whose own entry mirrors it (the encoders' 6200h cycle timer).
+    pub fn set_event_timer(&mut self, ctx: &mut Context, n: u8, ms: u16, now: Instant) -> Result<(), Abort> {
+        let params = self.tpdos().get(n as usize).map(|t| t.params).filter(|p| p.event != NONE);
+        let params = params.ok_or(Abort::NO_OBJECT)?;
+        if !params.asynchronous {
+            return Err(Abort::READ_ONLY);
+        }
+        let pos = params.event as usize;
+        self.write_event_timer(n as usize, ms as u32, now)?;
+        ctx.od.set(pos, ms as u32);
+        Ok(())
+    }
+
+    /// Checks a write to 1005h or a PDO parameter (entry `pos`, rule `hook`) and applies it to the
+    /// running PDOs; on `Ok` the node stores the value.
+    pub fn on_write(
+        &mut self,
+        ctx: &mut Context,
+        nmt: NmtState,
+        hook: CoreHook,
+        pos: usize,
+        value: u32,
+        now: Instant,
+    ) -> Result<(), Abort> {
+        let e = ctx.od.entry(pos);
+        let (index, sub) = (e.index, e.sub);
+        match hook {
+            CoreHook::SyncCobId => self.write_sync(nmt, value),
+            CoreHook::PdoCobId => match pdo_of(index) {
+                Some((Dir::Tx, n)) if n < self.ntpdo as usize => self.write_tpdo_cob(ctx, nmt, n, value, now),
+                Some((Dir::Rx, n)) if n < self.nrpdo as usize => self.write_rpdo_cob(ctx, nmt, n, value),
+                _ => Err(Abort::UNSUPPORTED_ACCESS),
+            },
+            CoreHook::PdoTransmissionType => match pdo_of(index) {
+                Some((Dir::Tx, n)) if n < self.ntpdo as usize => self.write_tpdo_type(&ctx.od, n, value, now),
+                Some((Dir::Rx, n)) if n < self.nrpdo as usize => self.write_rpdo_type(n, value),
+                _ => Err(Abort::UNSUPPORTED_ACCESS),
+            },
+            CoreHook::PdoEventTimer => match pdo_of(index) {
+                Some((Dir::Tx, n)) if n < self.ntpdo as usize && sub == 5 => self.write_event_timer(n, value, now),
+                // RPDO deadline monitoring is not supported (no manual has it).
+                _ => Err(Abort::UNSUPPORTED_ACCESS),
+            },
+            CoreHook::PdoMapping => match map_of(index) {
+                Some((Dir::Tx, n)) if n < self.ntpdo as usize => self.write_mapping(ctx, nmt, Dir::Tx, n, sub, value),
+                Some((Dir::Rx, n)) if n < self.nrpdo as usize => self.write_mapping(ctx, nmt, Dir::Rx, n, sub, value),
+                _ => Err(Abort::UNSUPPORTED_ACCESS),
+            },
+            _ => Err(Abort::GENERAL),
+        }
+    }
+
+    /// 1005h: PRE-OPERATIONAL only, as the object tables print it (08000022h otherwise; issue
+    /// 13 point 13, D-PDO-9); bit 30 (produce SYNC) cannot be set; bit 31 is not used (D-PDO-1).
+    fn write_sync(&mut self, nmt: NmtState, value: u32) -> Result<(), Abort> {
+        if nmt != NmtState::PreOperational {
+            return Err(Abort::DEVICE_STATE);
+        }
+        if value & COB_NO_RTR != 0 {
+            return Err(Abort::INVALID_VALUE);
+        }
+        let id = checked_id(value, true)?;
+        if self.sync != Some(id) {
+            self.sync = Some(id);
+            self.touch_rx_ids();
+        }
+        Ok(())
+    }
+
+    fn write_tpdo_cob(
+        &mut self,
+        ctx: &mut Context,
+        nmt: NmtState,
+        n: usize,
+        value: u32,
+        now: Instant,
+    ) -> Result<(), Abort> {
+        let t = &self.tpdo[n];
+        let old = ctx.od.get(t.params.cob as usize);
+        check_cob(nmt, old, value, t.map.ok)?;
+        let t = &mut self.tpdo[n];
+        set_tpdo_cob(t, value);
+        t.count = 0;
+        t.sample = None;
+        t.next = if self.running && t.valid { first_event(&ctx.od, t, now) } else { None };
+        self.update_deadline();
+        self.touch_rx_ids();
+        Ok(())
+    }
+
+    fn write_rpdo_cob(&mut self, ctx: &mut Context, nmt: NmtState, n: usize, value: u32) -> Result<(), Abort> {
+        let r = &self.rpdo[n];
+        let old = ctx.od.get(r.params.cob as usize);
+        check_cob(nmt, old, value, r.map.ok)?;
+        let r = &mut self.rpdo[n];
+        set_rpdo_cob(r, value);
+        r.pending = None;
+        self.touch_rx_ids();
+        Ok(())
+    }
+
+    fn write_tpdo_type(&mut self, od: &Od, n: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        let t = &mut self.tpdo[n];
+        let ttype = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
+        if !tpdo_type_allowed(t.params.asynchronous, ttype) {
+            return Err(Abort::INVALID_VALUE);
+        }
+        if ttype != t.ttype {
+            let was_event = t.event_driven();
+            t.ttype = ttype;
+            t.count = 0;
+            t.sample = None;
+            if !t.event_driven() {
+                t.next = None;
+            } else if !was_event && self.running {
+                t.next = first_event(od, t, now);
+            }
+            self.update_deadline();
+        }
+        Ok(())
+    }
+
+    fn write_rpdo_type(&mut self, n: usize, value: u32) -> Result<(), Abort> {
+        let ttype = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
+        if !rpdo_type_allowed(ttype) {
+            return Err(Abort::INVALID_VALUE);
+        }
+        let r = &mut self.rpdo[n];
+        r.ttype = ttype;
+        r.pending = None;
+        Ok(())
+    }
+
+    /// The event timer (D-PDO-4): 0 stops the timer at once; a new period on a running timer
+    /// applies from its next expiry (the manuals' "next timer operation"); a stopped timer given a
+    /// period starts now and fires one period later.
+    fn write_event_timer(&mut self, n: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        let ms = u16::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
+        let p = &mut *self;
+        let t = &mut p.tpdo[n];
+        if ms == 0 {
+            t.next = None;
+        } else if t.next.is_none() && p.running && t.valid && t.event_driven() {
+            t.next = Some(now.add_millis(ms as u64));
+        }
+        p.update_deadline();
+        Ok(())
+    }
+
+    /// A mapping write (D-PDO-5): PRE-OPERATIONAL only; only while the PDO is invalid; the
+    /// objects (sub 1..) only while sub 0 is 0; sub 0 = n checks the n objects and their total
+    /// length, and makes the mapping the PDO's.
+    fn write_mapping(
+        &mut self,
+        ctx: &mut Context,
+        nmt: NmtState,
+        dir: Dir,
+        n: usize,
+        sub: u8,
+        value: u32,
+    ) -> Result<(), Abort> {
+        if nmt != NmtState::PreOperational {
+            return Err(Abort::DEVICE_STATE);
+        }
+        let (valid, index) = match dir {
+            Dir::Tx => (self.tpdo[n].valid, 0x1A00 + n as u16),
+            Dir::Rx => (self.rpdo[n].valid, 0x1600 + n as u16),
         };
-    }
-    p.update_deadline();
-}
-
-/// When the next event-timer TPDO is due (`None` outside OPERATIONAL).
-pub fn next_deadline(core: &Core) -> Option<Instant> {
-    core.pdo.deadline
-}
-
-/// Sends TPDO `tpdo`'s current data on RPDO `rpdo`'s identifier: the answer to a remote
-/// request on an RPDO (`PdoEvent::RpdoRtr`) for a device whose manual defines one (the AP10T
-/// reads its set points back this way). Nothing is sent for a PDO that does not exist, is
-/// invalid or outside OPERATIONAL.
-pub fn reply(core: &mut Core, rpdo: u8, tpdo: u8) {
-    let p = &core.pdo;
-    let (Some(r), Some(t)) = (p.rpdos().get(rpdo as usize), p.tpdos().get(tpdo as usize)) else { return };
-    if !p.running || !r.valid || !t.map.ok {
-        return;
-    }
-    let frame = Frame { id: r.id, rtr: false, len: t.map.len, data: pack(&core.od, &t.map) };
-    core.out.send(frame);
-}
-
-/// Sets the event timer (18xxh.05) of TPDO `n` (0-based) to `ms`, with the checks and timing
-/// of an SDO write: for a device whose own entry mirrors it (the encoders' 6200h cycle timer).
-pub fn set_event_timer(core: &mut Core, n: u8, ms: u16, now: Instant) -> Result<(), Abort> {
-    let params = core.pdo.tpdos().get(n as usize).map(|t| t.params).filter(|p| p.event != NONE);
-    let params = params.ok_or(Abort::NO_OBJECT)?;
-    if !params.asynchronous {
-        return Err(Abort::READ_ONLY);
-    }
-    let pos = params.event as usize;
-    write_event_timer(core, n as usize, ms as u32, now)?;
-    core.od.set(pos, ms as u32);
-    Ok(())
-}
-
-/// Checks a write to 1005h or a PDO parameter (entry `pos`, rule `hook`) and applies it to the
-/// running PDOs; on `Ok` the node stores the value.
-pub fn on_write(core: &mut Core, hook: CoreHook, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
-    let e = core.od.entry(pos);
-    let (index, sub) = (e.index, e.sub);
-    match hook {
-        CoreHook::SyncCobId => write_sync(core, value),
-        CoreHook::PdoCobId => match pdo_of(index) {
-            Some((Dir::Tx, n)) if n < core.pdo.ntpdo as usize => write_tpdo_cob(core, n, value, now),
-            Some((Dir::Rx, n)) if n < core.pdo.nrpdo as usize => write_rpdo_cob(core, n, value),
-            _ => Err(Abort::UNSUPPORTED_ACCESS),
-        },
-        CoreHook::PdoTransmissionType => match pdo_of(index) {
-            Some((Dir::Tx, n)) if n < core.pdo.ntpdo as usize => write_tpdo_type(core, n, value, now),
-            Some((Dir::Rx, n)) if n < core.pdo.nrpdo as usize => write_rpdo_type(core, n, value),
-            _ => Err(Abort::UNSUPPORTED_ACCESS),
-        },
-        CoreHook::PdoEventTimer => match pdo_of(index) {
-            Some((Dir::Tx, n)) if n < core.pdo.ntpdo as usize && sub == 5 => write_event_timer(core, n, value, now),
-            // RPDO deadline monitoring is not supported (no manual has it).
-            _ => Err(Abort::UNSUPPORTED_ACCESS),
-        },
-        CoreHook::PdoMapping => match map_of(index) {
-            Some((Dir::Tx, n)) if n < core.pdo.ntpdo as usize => write_mapping(core, Dir::Tx, n, sub, value),
-            Some((Dir::Rx, n)) if n < core.pdo.nrpdo as usize => write_mapping(core, Dir::Rx, n, sub, value),
-            _ => Err(Abort::UNSUPPORTED_ACCESS),
-        },
-        _ => Err(Abort::GENERAL),
+        if valid {
+            return Err(Abort::INVALID_VALUE);
+        }
+        let rx = dir == Dir::Rx;
+        if sub != 0 {
+            if ctx.od.value(index, 0).unwrap_or(0) != 0 {
+                return Err(Abort::INVALID_VALUE);
+            }
+            // An object may be written before it is used; it is checked now all the same.
+            if value != 0 {
+                slice(&ctx.od, value, rx)?;
+            }
+            return Ok(());
+        }
+        let count = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
+        let map = resolve(&ctx.od, index, Some(count), rx)?;
+        match dir {
+            Dir::Tx => self.tpdo[n].map = map,
+            Dir::Rx => self.rpdo[n].map = map,
+        }
+        Ok(())
     }
 }
 
@@ -537,23 +748,6 @@ fn map_of(index: u16) -> Option<(Dir, usize)> {
         0x1A00..=0x1BFF => Some((Dir::Tx, (index - 0x1A00) as usize)),
         _ => None,
     }
-}
-
-/// 1005h: PRE-OPERATIONAL only, as the object tables print it (08000022h otherwise; issue 13
-/// point 13, D-PDO-9); bit 30 (produce SYNC) cannot be set; bit 31 is not used (D-PDO-1).
-fn write_sync(core: &mut Core, value: u32) -> Result<(), Abort> {
-    if core.nmt != NmtState::PreOperational {
-        return Err(Abort::DEVICE_STATE);
-    }
-    if value & COB_NO_RTR != 0 {
-        return Err(Abort::INVALID_VALUE);
-    }
-    let id = checked_id(value, true)?;
-    if core.pdo.sync != Some(id) {
-        core.pdo.sync = Some(id);
-        core.pdo.touch_rx_ids();
-    }
-    Ok(())
 }
 
 /// The identifier a PDO or SYNC COB-ID names, if well-formed: 11-bit with bits 11..28 clear,
@@ -605,31 +799,6 @@ fn set_rpdo_cob(r: &mut Rpdo, cob: u32) {
     r.valid = cob & COB_INVALID == 0;
 }
 
-fn write_tpdo_cob(core: &mut Core, n: usize, value: u32, now: Instant) -> Result<(), Abort> {
-    let t = &core.pdo.tpdo[n];
-    let old = core.od.get(t.params.cob as usize);
-    check_cob(core.nmt, old, value, t.map.ok)?;
-    let t = &mut core.pdo.tpdo[n];
-    set_tpdo_cob(t, value);
-    t.count = 0;
-    t.sample = None;
-    t.next = if core.pdo.running && t.valid { first_event(&core.od, t, now) } else { None };
-    core.pdo.update_deadline();
-    core.pdo.touch_rx_ids();
-    Ok(())
-}
-
-fn write_rpdo_cob(core: &mut Core, n: usize, value: u32) -> Result<(), Abort> {
-    let r = &core.pdo.rpdo[n];
-    let old = core.od.get(r.params.cob as usize);
-    check_cob(core.nmt, old, value, r.map.ok)?;
-    let r = &mut core.pdo.rpdo[n];
-    set_rpdo_cob(r, value);
-    r.pending = None;
-    core.pdo.touch_rx_ids();
-    Ok(())
-}
-
 /// Transmission types a TPDO accepts (D-PDO-3): an asynchronous TPDO (writable event timer)
 /// FDh, FEh, FFh; a synchronous one 1..=240 (every n-th SYNC), FCh and FDh (RTR only).
 pub fn tpdo_type_allowed(asynchronous: bool, ttype: u8) -> bool {
@@ -646,92 +815,10 @@ pub fn rpdo_type_allowed(ttype: u8) -> bool {
     matches!(ttype, 0..=240 | TYPE_ASYNC_MANUF | TYPE_ASYNC_PROFILE)
 }
 
-fn write_tpdo_type(core: &mut Core, n: usize, value: u32, now: Instant) -> Result<(), Abort> {
-    let t = &mut core.pdo.tpdo[n];
-    let ttype = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
-    if !tpdo_type_allowed(t.params.asynchronous, ttype) {
-        return Err(Abort::INVALID_VALUE);
-    }
-    if ttype != t.ttype {
-        let was_event = t.event_driven();
-        t.ttype = ttype;
-        t.count = 0;
-        t.sample = None;
-        if !t.event_driven() {
-            t.next = None;
-        } else if !was_event && core.pdo.running {
-            t.next = first_event(&core.od, t, now);
-        }
-        core.pdo.update_deadline();
-    }
-    Ok(())
-}
-
-fn write_rpdo_type(core: &mut Core, n: usize, value: u32) -> Result<(), Abort> {
-    let ttype = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
-    if !rpdo_type_allowed(ttype) {
-        return Err(Abort::INVALID_VALUE);
-    }
-    let r = &mut core.pdo.rpdo[n];
-    r.ttype = ttype;
-    r.pending = None;
-    Ok(())
-}
-
-/// The event timer (D-PDO-4): 0 stops the timer at once; a new period on a running timer
-/// applies from its next expiry (the manuals' "next timer operation"); a stopped timer given a
-/// period starts now and fires one period later.
-fn write_event_timer(core: &mut Core, n: usize, value: u32, now: Instant) -> Result<(), Abort> {
-    let ms = u16::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
-    let p = &mut core.pdo;
-    let t = &mut p.tpdo[n];
-    if ms == 0 {
-        t.next = None;
-    } else if t.next.is_none() && p.running && t.valid && t.event_driven() {
-        t.next = Some(now.add_millis(ms as u64));
-    }
-    p.update_deadline();
-    Ok(())
-}
-
 /// The first event-timer transmission of a TPDO started at `now`.
 fn first_event(od: &Od, t: &Tpdo, now: Instant) -> Option<Instant> {
     let ms = Params::get(od, t.params.event, 0);
     (t.valid && t.event_driven() && ms != 0).then(|| now.add_millis(ms as u64))
-}
-
-/// A mapping write (D-PDO-5): PRE-OPERATIONAL only; only while the PDO is invalid; the
-/// objects (sub 1..) only while sub 0 is 0; sub 0 = n checks the n objects and their total
-/// length, and makes the mapping the PDO's.
-fn write_mapping(core: &mut Core, dir: Dir, n: usize, sub: u8, value: u32) -> Result<(), Abort> {
-    if core.nmt != NmtState::PreOperational {
-        return Err(Abort::DEVICE_STATE);
-    }
-    let (valid, index) = match dir {
-        Dir::Tx => (core.pdo.tpdo[n].valid, 0x1A00 + n as u16),
-        Dir::Rx => (core.pdo.rpdo[n].valid, 0x1600 + n as u16),
-    };
-    if valid {
-        return Err(Abort::INVALID_VALUE);
-    }
-    let rx = dir == Dir::Rx;
-    if sub != 0 {
-        if core.od.value(index, 0).unwrap_or(0) != 0 {
-            return Err(Abort::INVALID_VALUE);
-        }
-        // An object may be written before it is used; it is checked now all the same.
-        if value != 0 {
-            slice(&core.od, value, rx)?;
-        }
-        return Ok(());
-    }
-    let count = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
-    let map = resolve(&core.od, index, Some(count), rx)?;
-    match dir {
-        Dir::Tx => core.pdo.tpdo[n].map = map,
-        Dir::Rx => core.pdo.rpdo[n].map = map,
-    }
-    Ok(())
 }
 
 /// Resolves mapping record `index` (its sub 0, or `count` in its place) against the

@@ -1,23 +1,17 @@
 //! SDO server (CiA 301 §7.2.4): expedited and segmented transfers on 600h/580h + node-ID.
 //!
-//! The server is a small state machine over 8-byte request payloads. Every value is read
+//! The server is a small state machine over the requests [`crate::wire::sdo`] parses from the
+//! 8 data bytes, whatever carries them (CANopen 600h/580h, J1939 CAM21/CAM11). Every value is read
 //! whole when an upload starts and written whole when a download ends, through
 //! [`ObjectAccess`], whose write is atomic: an aborted or timed-out transfer leaves the
 //! dictionary untouched. Block transfer is not offered; its command specifiers abort with
 //! 05040001h.
 
 use crate::abort::Abort;
-use crate::time::Instant;
+use crate::time::{Duration, Instant};
+use crate::wire::sdo::{ClientRequest, Initiate, ServerResponse};
 
-/// The result of a successful write.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum Written {
-    /// Done: confirm now.
-    Done,
-    /// The value was accepted but the confirmation waits for the shell (a 1010h "save"):
-    /// the server answers when [`SdoServer::complete_deferred`] is called.
-    Deferred,
-}
+pub use crate::context::Written;
 
 /// What the SDO server needs from the node: read and write by (index, sub).
 pub trait ObjectAccess {
@@ -25,6 +19,15 @@ pub trait ObjectAccess {
     fn read_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort>;
     /// Copies the value at (index, sub) into `buf` (at least `read_size` bytes); returns its size.
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort>;
+    /// The value at (index, sub), after the access check for reading, when it is 4 bytes or
+    /// fewer: its bytes (little-endian, the rest zero) and its size; `Ok(None)` for a longer
+    /// value, which [`ObjectAccess::read`] then reads. Lets an expedited upload take one
+    /// lookup and no value buffer.
+    fn read_short(&mut self, index: u16, sub: u8) -> Result<Option<([u8; 4], usize)>, Abort> {
+        let mut buf = [0u8; MAX_VALUE];
+        let n = self.read(index, sub, &mut buf)?;
+        Ok((n <= 4).then_some(([buf[0], buf[1], buf[2], buf[3]], n)))
+    }
     /// Checks and writes `data` to (index, sub). Nothing changes on `Err`.
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort>;
     /// Size in bytes of the value at (index, sub), whatever its access: how many bytes an
@@ -39,7 +42,7 @@ pub trait ObjectAccess {
 pub const MAX_VALUE: usize = 32;
 
 /// How long the server waits for the client's next segment (D-SDO-3).
-pub const TIMEOUT_US: u64 = 1_000_000;
+pub const TIMEOUT: Duration = Duration::from_secs(1);
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 enum State {
@@ -54,12 +57,14 @@ pub struct SdoServer {
     state: State,
     index: u16,
     sub: u8,
-    toggle: u8,
+    toggle: bool,
     buf: [u8; MAX_VALUE],
     len: usize,
     pos: usize,
     deadline: Instant,
-    deferred: Option<(u16, u8, [u8; 8])>,
+    deferred: Option<(u16, u8, ServerResponse)>,
+    /// Expedited transfers only (the AP10T, D-AP-21).
+    expedited_only: bool,
 }
 
 impl Default for SdoServer {
@@ -70,14 +75,7 @@ impl Default for SdoServer {
 
 /// An abort transfer payload (CiA 301 §7.2.4.3.17).
 pub fn abort_frame(index: u16, sub: u8, abort: Abort) -> [u8; 8] {
-    let i = index.to_le_bytes();
-    let c = abort.0.to_le_bytes();
-    [0x80, i[0], i[1], sub, c[0], c[1], c[2], c[3]]
-}
-
-fn header(cs: u8, index: u16, sub: u8) -> [u8; 8] {
-    let i = index.to_le_bytes();
-    [cs, i[0], i[1], sub, 0, 0, 0, 0]
+    ServerResponse::Abort { index, sub, code: abort.0 }.emit()
 }
 
 impl SdoServer {
@@ -87,13 +85,21 @@ impl SdoServer {
             state: State::Idle,
             index: 0,
             sub: 0,
-            toggle: 0,
+            toggle: false,
             buf: [0; MAX_VALUE],
             len: 0,
             pos: 0,
             deadline: Instant::ZERO,
             deferred: None,
+            expedited_only: false,
         }
+    }
+
+    /// Serves expedited transfers only, as the AP10T's manual does ("exclusively via expedited
+    /// Request/Response", D-AP-21): a segmented or unsized download request aborts with
+    /// 05040001h, and a value longer than four bytes is uploaded expedited with its first four.
+    pub fn set_expedited_only(&mut self, on: bool) {
+        self.expedited_only = on;
     }
 
     /// Drops any transfer in progress (NMT reset, STOPPED).
@@ -102,152 +108,170 @@ impl SdoServer {
         self.deferred = None;
     }
 
-    fn fail(&mut self, index: u16, sub: u8, abort: Abort) -> Option<[u8; 8]> {
+    fn fail(&mut self, index: u16, sub: u8, abort: Abort) -> Option<ServerResponse> {
         self.state = State::Idle;
-        Some(abort_frame(index, sub, abort))
+        Some(ServerResponse::Abort { index, sub, code: abort.0 })
     }
 
-    /// Handles the payload of a request frame; returns the 8-byte response, if any.
-    /// Requests shorter than 8 bytes are not SDO requests (CiA 301) and are ignored (D-SDO-2).
+    /// Handles the data bytes of a request; returns the 8-byte response, if any. Requests
+    /// that are not 8 bytes long are not SDO requests (CiA 301) and are ignored (D-SDO-2).
+    #[inline]
     pub fn on_request(&mut self, req: &[u8], now: Instant, dict: &mut impl ObjectAccess) -> Option<[u8; 8]> {
-        let req: &[u8; 8] = req.try_into().ok()?;
-        let cmd = req[0];
-        let index = u16::from_le_bytes([req[1], req[2]]);
-        let sub = req[3];
-        match cmd >> 5 {
-            // Initiate upload.
-            2 => {
+        let parsed = ClientRequest::parse(req)?;
+        // An initiate download with e = 1 and s = 1 (23h, 27h, 2Bh, 2Fh).
+        let sized_expedited = req[0] & 0x03 == 0x03;
+        self.serve_with(parsed, sized_expedited, now, dict).map(|r| r.emit())
+    }
+
+    /// Serves one parsed request; returns the response, if any.
+    #[inline]
+    pub fn serve(&mut self, req: ClientRequest, now: Instant, dict: &mut impl ObjectAccess) -> Option<ServerResponse> {
+        self.serve_with(req, true, now, dict)
+    }
+
+    /// [`SdoServer::serve`] knowing whether an initiate download indicated its size and was
+    /// expedited (what an expedited-only server requires).
+    #[inline]
+    fn serve_with(
+        &mut self,
+        req: ClientRequest,
+        sized_expedited: bool,
+        now: Instant,
+        dict: &mut impl ObjectAccess,
+    ) -> Option<ServerResponse> {
+        match req {
+            ClientRequest::InitiateUpload { index, sub } => {
                 self.state = State::Idle;
                 self.upload(index, sub, now, dict)
             }
-            // Initiate download.
-            1 => {
-                self.state = State::Idle;
-                self.initiate_download(cmd, index, sub, req, now, dict)
+            ClientRequest::InitiateDownload { index, sub, .. } if self.expedited_only && !sized_expedited => {
+                self.fail(index, sub, Abort::INVALID_COMMAND)
             }
-            // Upload segment.
-            3 => match self.state {
-                State::Upload => self.upload_segment(cmd, now),
+            ClientRequest::InitiateDownload { index, sub, kind } => {
+                self.state = State::Idle;
+                self.initiate_download(index, sub, kind, now, dict)
+            }
+            ClientRequest::UploadSegment { toggle } => match self.state {
+                State::Upload => self.upload_segment(toggle, now),
                 _ => self.fail(self.index, self.sub, Abort::INVALID_COMMAND),
             },
-            // Download segment.
-            0 => match self.state {
-                State::Download { size } => self.download_segment(cmd, req, size, now, dict),
+            ClientRequest::DownloadSegment { toggle, data, len, last } => match self.state {
+                State::Download { size } => self.download_segment(toggle, &data, len, last, size, now, dict),
                 _ => self.fail(self.index, self.sub, Abort::INVALID_COMMAND),
             },
             // Abort from the client: the transfer ends without an answer.
-            4 => {
+            ClientRequest::Abort { .. } => {
                 self.state = State::Idle;
                 None
             }
-            // Block upload/download and anything else.
-            _ => self.fail(index, sub, Abort::INVALID_COMMAND),
+            // Block upload/download and the reserved command.
+            ClientRequest::Unsupported { index, sub, .. } => self.fail(index, sub, Abort::INVALID_COMMAND),
         }
     }
 
-    fn upload(&mut self, index: u16, sub: u8, now: Instant, dict: &mut impl ObjectAccess) -> Option<[u8; 8]> {
-        // One lookup: the value is read whole, then sent expedited or segmented by its size.
+    #[inline]
+    fn upload(&mut self, index: u16, sub: u8, now: Instant, dict: &mut impl ObjectAccess) -> Option<ServerResponse> {
+        // A value of 4 bytes or fewer goes out expedited after one lookup; a longer one is
+        // read whole and sent segmented.
+        match dict.read_short(index, sub) {
+            Ok(Some((data, n))) => return Some(ServerResponse::UploadExpedited { index, sub, data, len: n as u8 }),
+            Ok(None) => {}
+            Err(abort) => return self.fail(index, sub, abort),
+        }
         let mut value = [0u8; MAX_VALUE];
         let n = match dict.read(index, sub, &mut value) {
+            Ok(n) if self.expedited_only => n.min(4),
             Ok(n) => n,
             Err(abort) => return self.fail(index, sub, abort),
         };
         if n <= 4 {
-            let mut out = header(0, index, sub);
-            out[4..4 + n].copy_from_slice(&value[..n]);
-            // Expedited, size indicated: e = 1, s = 1, n = 4 - size.
-            out[0] = 0x43 | (((4 - n) as u8) << 2);
-            return Some(out);
+            let data = [value[0], value[1], value[2], value[3]];
+            return Some(ServerResponse::UploadExpedited { index, sub, data, len: n as u8 });
         }
         self.begin(State::Upload, index, sub, now);
         self.buf = value;
         self.len = n;
-        let mut out = header(0x41, index, sub);
-        out[4..8].copy_from_slice(&(n as u32).to_le_bytes());
-        Some(out)
+        Some(ServerResponse::UploadSegmented { index, sub, size: n as u32 })
     }
 
-    fn upload_segment(&mut self, cmd: u8, now: Instant) -> Option<[u8; 8]> {
-        let t = cmd & 0x10;
-        if t != self.toggle {
+    fn upload_segment(&mut self, toggle: bool, now: Instant) -> Option<ServerResponse> {
+        if toggle != self.toggle {
             return self.fail(self.index, self.sub, Abort::TOGGLE);
         }
         let n = (self.len - self.pos).min(7);
-        let mut out = [0u8; 8];
-        out[1..1 + n].copy_from_slice(&self.buf[self.pos..self.pos + n]);
+        let mut data = [0u8; 7];
+        data[..n].copy_from_slice(&self.buf[self.pos..self.pos + n]);
         self.pos += n;
         let last = self.pos == self.len;
-        out[0] = t | (((7 - n) as u8) << 1) | last as u8;
-        self.toggle ^= 0x10;
-        self.deadline = now.add_micros(TIMEOUT_US);
+        self.toggle = !self.toggle;
+        self.deadline = now + TIMEOUT;
         if last {
             self.state = State::Idle;
         }
-        Some(out)
+        Some(ServerResponse::UploadSegment { toggle, data, len: n as u8, last })
     }
 
     fn initiate_download(
         &mut self,
-        cmd: u8,
         index: u16,
         sub: u8,
-        req: &[u8; 8],
+        kind: Initiate,
         now: Instant,
         dict: &mut impl ObjectAccess,
-    ) -> Option<[u8; 8]> {
-        let expedited = cmd & 0x02 != 0;
-        let sized = cmd & 0x01 != 0;
-        if expedited {
+    ) -> Option<ServerResponse> {
+        let size = match kind {
+            Initiate::Expedited { data, len } => return self.write(index, sub, &data[..len as usize], now, dict),
             // Without a size indication (22h) the object's size applies (CiA 301, D-SDO-8);
             // 4 bytes where the dictionary names none (its write then answers the abort).
-            let n = if sized {
-                4 - ((cmd >> 2) & 0x03) as usize
-            } else {
-                dict.write_size(index, sub).ok().filter(|n| (1..=4).contains(n)).unwrap_or(4)
-            };
-            return self.write(index, sub, &req[4..4 + n], now, dict);
-        }
-        let size = if sized { Some(u32::from_le_bytes([req[4], req[5], req[6], req[7]]) as usize) } else { None };
+            Initiate::ExpeditedUnsized { data } => {
+                let n = dict.write_size(index, sub).ok().filter(|n| (1..=4).contains(n)).unwrap_or(4);
+                return self.write(index, sub, &data[..n], now, dict);
+            }
+            Initiate::Segmented { size } => size.map(|s| s as usize),
+        };
         if size.is_some_and(|s| s > MAX_VALUE) {
             return self.fail(index, sub, Abort::LENGTH_HIGH);
         }
         self.begin(State::Download { size }, index, sub, now);
-        Some(header(0x60, index, sub))
+        Some(ServerResponse::DownloadInitiated { index, sub })
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn download_segment(
         &mut self,
-        cmd: u8,
-        req: &[u8; 8],
+        toggle: bool,
+        data: &[u8; 7],
+        n: u8,
+        last: bool,
         size: Option<usize>,
         now: Instant,
         dict: &mut impl ObjectAccess,
-    ) -> Option<[u8; 8]> {
-        let t = cmd & 0x10;
-        if t != self.toggle {
+    ) -> Option<ServerResponse> {
+        if toggle != self.toggle {
             return self.fail(self.index, self.sub, Abort::TOGGLE);
         }
-        let n = 7 - ((cmd >> 1) & 0x07) as usize;
+        let n = n as usize;
         if self.len + n > MAX_VALUE {
             return self.fail(self.index, self.sub, Abort::LENGTH_HIGH);
         }
-        self.buf[self.len..self.len + n].copy_from_slice(&req[1..1 + n]);
+        self.buf[self.len..self.len + n].copy_from_slice(&data[..n]);
         self.len += n;
-        self.toggle ^= 0x10;
-        self.deadline = now.add_micros(TIMEOUT_US);
-        if cmd & 0x01 == 0 {
-            return Some([0x20 | t, 0, 0, 0, 0, 0, 0, 0]);
+        self.toggle = !self.toggle;
+        self.deadline = now + TIMEOUT;
+        let confirm = ServerResponse::DownloadSegment { toggle };
+        if !last {
+            return Some(confirm);
         }
         self.state = State::Idle;
         if size.is_some_and(|s| s != self.len) {
             return self.fail(self.index, self.sub, Abort::LENGTH_MISMATCH);
         }
         let (index, sub, len) = (self.index, self.sub, self.len);
-        let data = self.buf;
-        match dict.write(index, sub, &data[..len], now) {
-            Ok(Written::Done) => Some([0x20 | t, 0, 0, 0, 0, 0, 0, 0]),
+        let value = self.buf;
+        match dict.write(index, sub, &value[..len], now) {
+            Ok(Written::Done) => Some(confirm),
             Ok(Written::Deferred) => {
-                self.deferred = Some((index, sub, [0x20 | t, 0, 0, 0, 0, 0, 0, 0]));
+                self.deferred = Some((index, sub, confirm));
                 None
             }
             Err(abort) => self.fail(index, sub, abort),
@@ -261,11 +285,12 @@ impl SdoServer {
         data: &[u8],
         now: Instant,
         dict: &mut impl ObjectAccess,
-    ) -> Option<[u8; 8]> {
+    ) -> Option<ServerResponse> {
+        let confirm = ServerResponse::DownloadInitiated { index, sub };
         match dict.write(index, sub, data, now) {
-            Ok(Written::Done) => Some(header(0x60, index, sub)),
+            Ok(Written::Done) => Some(confirm),
             Ok(Written::Deferred) => {
-                self.deferred = Some((index, sub, header(0x60, index, sub)));
+                self.deferred = Some((index, sub, confirm));
                 None
             }
             Err(abort) => self.fail(index, sub, abort),
@@ -276,16 +301,16 @@ impl SdoServer {
         self.state = state;
         self.index = index;
         self.sub = sub;
-        self.toggle = 0;
+        self.toggle = false;
         self.len = 0;
         self.pos = 0;
-        self.deadline = now.add_micros(TIMEOUT_US);
+        self.deadline = now + TIMEOUT;
     }
 
     /// Aborts a transfer whose client fell silent; returns the abort frame payload.
     pub fn poll(&mut self, now: Instant) -> Option<[u8; 8]> {
         if self.state != State::Idle && now >= self.deadline {
-            return self.fail(self.index, self.sub, Abort::TIMEOUT);
+            return self.fail(self.index, self.sub, Abort::TIMEOUT).map(|r| r.emit());
         }
         None
     }
@@ -299,7 +324,7 @@ impl SdoServer {
     pub fn complete_deferred(&mut self, result: Result<(), Abort>) -> Option<[u8; 8]> {
         let (index, sub, done) = self.deferred.take()?;
         Some(match result {
-            Ok(()) => done,
+            Ok(()) => done.emit(),
             Err(abort) => abort_frame(index, sub, abort),
         })
     }
@@ -347,6 +372,35 @@ mod tests {
 
     fn at(ms: u64) -> Instant {
         Instant::from_millis(ms)
+    }
+
+    #[test]
+    fn expedited_only_aborts_segmented_and_unsized_requests_and_cuts_long_values() {
+        let mut d = Fake { value: 7 };
+        let mut s = SdoServer::new();
+        s.set_expedited_only(true);
+        let t = Instant::ZERO;
+        // Initiate segmented download (21h, 20h) and unsized expedited (22h): 05040001h.
+        for cmd in [0x21, 0x20, 0x22] {
+            assert_eq!(
+                s.on_request(&[cmd, 0x00, 0x20, 0x00, 4, 0, 0, 0], t, &mut d),
+                Some([0x80, 0x00, 0x20, 0x00, 0x01, 0x00, 0x04, 0x05])
+            );
+        }
+        assert_eq!(d.value, 7);
+        // Sized expedited still writes.
+        assert_eq!(
+            s.on_request(&[0x23, 0x00, 0x20, 0x00, 9, 0, 0, 0], t, &mut d),
+            Some([0x60, 0x00, 0x20, 0, 0, 0, 0, 0])
+        );
+        assert_eq!(d.value, 9);
+        // The 10-byte string: its first four bytes, expedited.
+        assert_eq!(
+            s.on_request(&[0x40, 0x01, 0x20, 0x00, 0, 0, 0, 0], t, &mut d),
+            Some([0x43, 0x01, 0x20, 0x00, b'0', b'1', b'2', b'3'])
+        );
+        // No segment follows.
+        assert_eq!(s.on_request(&[0x60, 0, 0, 0, 0, 0, 0, 0], t, &mut d).map(|r| r[0]), Some(0x80));
     }
 
     #[test]

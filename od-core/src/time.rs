@@ -1,4 +1,7 @@
-//! Time as the core sees it: an instant the caller passes in. The core never reads a clock.
+//! Time as the core sees it: an instant the caller passes in, and spans between instants. The
+//! core never reads a clock.
+
+use core::ops::{Add, AddAssign, Sub};
 
 /// A point in time, in microseconds since an arbitrary origin (power-on in the firmware,
 /// zero in host tests). Only differences matter.
@@ -43,6 +46,89 @@ impl Instant {
     pub const fn micros_since(self, earlier: Instant) -> u64 {
         self.0.saturating_sub(earlier.0)
     }
+
+    /// This instant plus `d` (saturating at the end of time).
+    pub const fn add(self, d: Duration) -> Instant {
+        Instant(self.0.saturating_add(d.0))
+    }
+
+    /// The span from `earlier` to `self`, zero if `earlier` is later.
+    pub const fn since(self, earlier: Instant) -> Duration {
+        Duration(self.0.saturating_sub(earlier.0))
+    }
+}
+
+/// A span of time in microseconds: a timer period, a delay, a timeout. Unsigned; arithmetic
+/// saturates, so no span of bus input can overflow.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug, Default)]
+pub struct Duration(u64);
+
+impl Duration {
+    /// No time.
+    pub const ZERO: Duration = Duration(0);
+
+    /// From microseconds.
+    pub const fn from_micros(us: u64) -> Duration {
+        Duration(us)
+    }
+
+    /// From milliseconds (saturating).
+    pub const fn from_millis(ms: u64) -> Duration {
+        Duration(ms.saturating_mul(1000))
+    }
+
+    /// From seconds (saturating).
+    pub const fn from_secs(s: u64) -> Duration {
+        Duration(s.saturating_mul(1_000_000))
+    }
+
+    /// In microseconds.
+    pub const fn as_micros(self) -> u64 {
+        self.0
+    }
+
+    /// In whole milliseconds.
+    pub const fn as_millis(self) -> u64 {
+        self.0 / 1000
+    }
+
+    /// Is it zero?
+    pub const fn is_zero(self) -> bool {
+        self.0 == 0
+    }
+
+    /// This span `n` times (saturating).
+    pub const fn times(self, n: u64) -> Duration {
+        Duration(self.0.saturating_mul(n))
+    }
+}
+
+impl Add<Duration> for Instant {
+    type Output = Instant;
+    fn add(self, d: Duration) -> Instant {
+        Instant::add(self, d)
+    }
+}
+
+impl AddAssign<Duration> for Instant {
+    fn add_assign(&mut self, d: Duration) {
+        *self = Instant::add(*self, d);
+    }
+}
+
+impl Sub<Instant> for Instant {
+    type Output = Duration;
+    /// The span between two instants, zero if the right one is later.
+    fn sub(self, earlier: Instant) -> Duration {
+        self.since(earlier)
+    }
+}
+
+impl Add for Duration {
+    type Output = Duration;
+    fn add(self, d: Duration) -> Duration {
+        Duration(self.0.saturating_add(d.0))
+    }
 }
 
 /// The earlier of two optional deadlines.
@@ -51,5 +137,25 @@ pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
         (Some(x), Some(y)) => Some(if x <= y { x } else { y }),
         (x, None) => x,
         (None, y) => y,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn durations_add_to_instants_and_saturate() {
+        let t = Instant::from_millis(5);
+        assert_eq!(t + Duration::from_millis(10), Instant::from_millis(15));
+        assert_eq!(Instant::from_millis(15) - t, Duration::from_millis(10));
+        assert_eq!(t - Instant::from_millis(15), Duration::ZERO);
+        assert_eq!(Instant::from_micros(u64::MAX - 1) + Duration::from_secs(1), Instant::from_micros(u64::MAX));
+        assert_eq!(Duration::from_millis(u64::MAX), Duration::from_micros(u64::MAX));
+        assert_eq!(Duration::from_millis(3).times(4), Duration::from_millis(12));
+        assert_eq!(Duration::from_micros(2500).as_millis(), 2);
+        let mut u = t;
+        u += Duration::from_micros(1);
+        assert_eq!(u.since(t), Duration::from_micros(1));
     }
 }

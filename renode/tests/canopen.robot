@@ -28,6 +28,22 @@ ${NMT_START_ALL}            01 00
 ${SGH_DEVICE_TYPE}          96 01 0A 00
 # 1000h default of the multiturn WV5800M (eds/WV5800M.eds): 0x00020196
 ${WV_MULTITURN_TYPE}        96 01 02 00
+# SDO expedited download of 4 bytes (23h) to 1010h sub 1: "save" (73 61 76 65), all parameters
+${SAVE_ALL}                 23 10 10 01 73 61 76 65
+# SDO upload request of 1017h sub 0 (producer heartbeat time)
+${READ_HEARTBEAT}           40 17 10 00 00 00 00 00
+# NMT "reset communication" (82h) to all nodes
+${NMT_RESET_COMM_ALL}       82 00
+# LSS (CiA 305, on 7E5h): switch state global configuration / waiting, configure node-ID FFh
+# ("not configured", docs/decisions.md D-LSS-5)
+${LSS_CONFIGURATION}        04 01 00 00 00 00 00 00
+${LSS_WAITING}              04 00 00 00 00 00 00 00
+${LSS_UNCONFIGURE}          11 FF 00 00 00 00 00 00
+# The serial numbers of the SGH50 pair of sgh50.resc from a blank flash: CRC-32 of the unique
+# IDs the script gives sgh50a and sgh50b (docs/decisions.md D-FW-3;
+# tests-host/tests/renode_images.rs checks them against the script)
+${SGH50A_SERIAL}            62552812
+${SGH50B_SERIAL}            F9F0647D
 
 *** Keywords ***
 Load Bus Commands
@@ -62,9 +78,10 @@ Send Frame
     Execute Command         can_send "${hub}" ${id} "${data}"
 
 Wait For Frame
-    [Arguments]             ${hub}    ${frame}
-    # keep=True: frames of two nodes may come in either order; each pattern is unique in a test.
-    Wait For Log Entry      CAN ${hub} ${frame}    timeout=${TIMEOUT}    keep=True
+    [Arguments]             ${hub}    ${frame}    ${timeout}=${TIMEOUT}
+    # keep=True: frames of two nodes may come in either order; each pattern is unique in a test
+    # (or the history is cleared in between).
+    Wait For Log Entry      CAN ${hub} ${frame}    timeout=${timeout}    keep=True
 
 *** Test Cases ***
 SGH10 Should Send Its Boot-up Frame
@@ -192,3 +209,93 @@ One Bus Should Carry The Simulator's Bench With Stored Node-IDs
     # The serial numbers are the programmed ones (1018h sub 4 = 1000010 = 000F424Ah).
     Send Frame              can0    0x60A    40 18 10 04 00 00 00 00
     Wait For Frame          can0    58A [8] 43 18 10 04 4A 42 0F 00
+
+SGH10 Should Keep A Stored Parameter Over A Machine Reset
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create SGH10
+    Wait For Frame          canSgh10    701 [1] 00
+    Send Frame              canSgh10    0x601    ${HEARTBEAT_100_MS}
+    Wait For Frame          canSgh10    581 [8] 60 17 10 00
+    # 1010h sub 1 "save": the answer comes once the parameter pages are written (D-FW-9).
+    Send Frame              canSgh10    0x601    ${SAVE_ALL}
+    Wait For Frame          canSgh10    581 [8] 60 10 10 01
+    # A reset of the machine (the CPU and every peripheral; the reset macro reloads the ELF, the
+    # flash memory keeps its contents, as a power cycle keeps the chip's flash). The history is
+    # cleared first, so the boot-up and heartbeat below can only be the new ones.
+    Clear Log Tester History
+    Execute Command         mach set "sgh10"
+    Execute Command         machine Reset
+    Wait For Frame          canSgh10    701 [1] 00
+    # 1017h defaults to 0 (no heartbeat): a heartbeat without being asked is the stored 100 ms.
+    Wait For Frame          canSgh10    701 [1] 7F
+    Send Frame              canSgh10    0x601    ${READ_HEARTBEAT}
+    Wait For Frame          canSgh10    581 [8] 4B 17 10 00 64 00 00 00
+
+LSS Fastscan Should Find Both SGH50 Boards By Their Serial Numbers
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create Redundant SGH50
+    Execute Command         emulation SetGlobalAdvanceImmediately True
+    Wait For Frame          canSgh50    701 [1] 00
+    Wait For Frame          canSgh50    702 [1] 00
+    # Both boards lose their node-ID: configuration state, pending node-ID FFh (both answer
+    # 11h 00h), waiting, then NMT reset communication activates it (D-LSS-5, D-LSS-7). A node
+    # without node-ID is silent but for LSS.
+    Send Frame              canSgh50    0x7E5    ${LSS_CONFIGURATION}
+    Send Frame              canSgh50    0x7E5    ${LSS_UNCONFIGURE}
+    Wait For Frame          canSgh50    7E4 [8] 11 00 00 00 00 00 00 00
+    Send Frame              canSgh50    0x7E5    ${LSS_WAITING}
+    Send Frame              canSgh50    0x000    ${NMT_RESET_COMM_ALL}
+    Execute Command         pause
+    Execute Command         emulation RunFor "0.1"
+    Clear Log Tester History
+    # Fastscan tells the two boards apart by their LSS addresses, which differ in the serial
+    # number only: each board's is derived from its own unique ID (sgh50.resc). With one ID for
+    # both (the unmodelled system memory read 0: serial 7BD5C66Fh twice) both boards answer
+    # every step alike, both take the first node-ID and the scan fails.
+    Execute Command         lss_fastscan "canSgh50" 0x20
+    Wait For Log Entry      LSS fastscan canSgh50: found serial ${SGH50A_SERIAL}    timeout=10    keep=True
+    Wait For Log Entry      LSS fastscan canSgh50: found serial ${SGH50B_SERIAL}    timeout=10    keep=True
+    Wait For Log Entry      LSS fastscan canSgh50: done, 2 found    timeout=10    keep=True
+    Should Not Be In Log    LSS fastscan canSgh50: failed    timeout=0
+    # Each found board boots up with the node-ID it was given: 20h for the lower address (the
+    # scan asks every bit as 0 first), 21h for the other.
+    Wait For Frame          canSgh50    720 [1] 00
+    Wait For Frame          canSgh50    721 [1] 00
+
+One Bus Should Run A Minute Without A Watchdog Reset
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Execute Command         $global.sgh10_bin=@${FIRMWARE}/sgh10
+    Execute Command         $global.sgh50_bin=@${FIRMWARE}/sgh50
+    Execute Command         $global.wv5800m_bin=@${FIRMWARE}/wv5800m
+    Execute Command         include @${FILES}/bus.resc
+    Execute Command         can_trace "can0"
+    Execute Command         emulation SetGlobalAdvanceImmediately True
+    Wait For Frame          can0    70A [1] 00
+    Wait For Frame          can0    714 [1] 00
+    Wait For Frame          can0    715 [1] 00
+    Wait For Frame          can0    71E [1] 00
+    # Every node sends a heartbeat every 100 ms and is OPERATIONAL, so each has the LED,
+    # heartbeat and sample deadlines of a working bench. Broadcast SDO is not CANopen: each
+    # node is asked on its own.
+    Send Frame              can0    0x60A    ${HEARTBEAT_100_MS}
+    Send Frame              can0    0x614    ${HEARTBEAT_100_MS}
+    Send Frame              can0    0x615    ${HEARTBEAT_100_MS}
+    Send Frame              can0    0x61E    ${HEARTBEAT_100_MS}
+    Send Frame              can0    0x000    ${NMT_START_ALL}
+    Wait For Frame          can0    70A [1] 05
+    Wait For Frame          can0    714 [1] 05
+    Wait For Frame          can0    715 [1] 05
+    Wait For Frame          can0    71E [1] 05
+    # Renode's IWDG model logs this (Warning) when it resets a machine. Before the firmware
+    # kept its timer alarms off compare value 0 (board_plan::alarm, renode issue 1007) the
+    # four boards were reset 2 to 3 times in 10 to 12 virtual seconds.
+    Should Not Be In Log    Watchdog reset triggered!    timeout=60
+    # Still alive: every node's heartbeat after the minute.
+    Clear Log Tester History
+    Wait For Frame          can0    70A [1] 05
+    Wait For Frame          can0    714 [1] 05
+    Wait For Frame          can0    715 [1] 05
+    Wait For Frame          can0    71E [1] 05

@@ -156,6 +156,20 @@ def sdo(net, node):
     return node
 
 
+def boot_up_of(net, node_id):
+    """An event set when node `node_id` sends its boot-up. Subscribe before causing it:
+    python-canopen's `wait_for_bootup` only sees a boot-up that arrives after the call, and the
+    simulator answers within a millisecond, often before the call."""
+    booted = threading.Event()
+
+    def on_message(_id, data, _t):
+        if bytes(data) == b"\x00":
+            booted.set()
+
+    net.subscribe(0x700 + node_id, on_message)
+    return booted
+
+
 def expect_abort(code, fn):
     with pytest.raises(canopen.SdoAbortedError) as e:
         fn()
@@ -208,9 +222,10 @@ def test_nmt_start_and_heartbeats(sdo):
 # ---- NMT, PDO (no SDO needed: the configuration comes from the EDS) ----
 
 
-def test_reset_gives_a_boot_up(node):
+def test_reset_gives_a_boot_up(net, node):
+    booted = boot_up_of(net, NODE)
     node.nmt.send_command(0x82)
-    node.nmt.wait_for_bootup(timeout=2)
+    assert booted.wait(2)
 
 
 def test_tpdo_on_sync_through_subscriptions(net, node, kind):
@@ -254,16 +269,17 @@ def test_lss_fastscan_configure_store_and_power_cycle(state_dir):
         # The fastscan left the node in configuration state.
         net.lss.configure_node_id(42)
         net.lss.store_configuration()
-        node = net.add_node(42, SGH10_EDS)
+        booted = boot_up_of(net, 42)
         net.lss.send_switch_state_global(net.lss.WAITING_STATE)
-        node.nmt.wait_for_bootup(timeout=2)
+        assert booted.wait(2)
         net.disconnect()
 
         sim.restart()
         net = sim.network()
         node = net.add_node(42, SGH10_EDS)
+        booted = boot_up_of(net, 42)
         node.nmt.send_command(0x81)
-        node.nmt.wait_for_bootup(timeout=2)
+        assert booted.wait(2)
         # Configured now: a new fastscan finds nobody.
         net.lss.RESPONSE_TIMEOUT = 0.1
         assert net.lss.fast_scan() == (False, None)
@@ -291,25 +307,272 @@ def test_a_second_client_sees_the_same_traffic(one_sim):
         b.shutdown()
 
 
-def test_bad_input_gets_an_error_and_stops_nothing(one_sim):
+def test_bad_input_is_dropped_or_refused_as_socketcand_does(one_sim):
+    """Issue 13 point 4: a malformed frame is dropped without an answer, an unknown command gets
+    socketcand's fixed `< error unknown command >`, an unknown bus `< error could not open bus >`
+    and the end of the connection; nothing the client sent comes back."""
     other = one_sim.bus()
     try:
         with socket.create_connection(("127.0.0.1", one_sim.port)) as s:
-            f = s.makefile("rwb", buffering=0)
+            s.settimeout(2)
 
             def ask(msg):
                 s.sendall(msg.encode())
                 return s.recv(256).decode()
 
             assert s.recv(64) == b"< hi >"
-            assert ask("< open can9 >") == "< error unknown bus can9 >"
+            assert ask("< rawmode >") == "< error unknown command >"
             assert ask("< open can0 >") == "< ok >"
             assert ask("< rawmode >") == "< ok >"
-            assert ask("< send 60A 9 1 2 3 4 5 6 7 8 9 >") == "< error DLC 9 over 8 >"
-            assert ask("< sned 1 0 >") == "< error unknown command sned >"
-            f.close()
+            assert ask("< send 60A 9 1 2 3 4 5 6 7 8 9 >< sned 1 0 >") == "< error unknown command >"
+        with socket.create_connection(("127.0.0.1", one_sim.port)) as s:
+            s.settimeout(2)
+            assert s.recv(64) == b"< hi >"
+            s.sendall(b"< open can9 >")
+            assert s.recv(256) == b"< error could not open bus >"
+            assert s.recv(256) == b"", "socketcand ends the connection"
         other.send(can.Message(arbitration_id=0x000, data=[0x81, NODE], is_extended_id=False))
         m = other.recv(2)
         assert (m.arbitration_id, bytes(m.data)) == (0x70A, b"\x00")
     finally:
         other.shutdown()
+
+
+def raw_client(sim, channel="can0"):
+    """A socketcand client on a plain socket, in rawmode."""
+    s = socket.create_connection(("127.0.0.1", sim.port))
+    s.settimeout(2)
+    assert s.recv(64) == b"< hi >"
+    s.sendall(f"< open {channel} >".encode())
+    assert s.recv(64) == b"< ok >"
+    s.sendall(b"< rawmode >")
+    assert s.recv(64) == b"< ok >"
+    return s
+
+
+def send_text(frame_id, data):
+    return f"< send {frame_id:03X} {len(data):X} {' '.join(f'{b:x}' for b in data)} >"
+
+
+READ_1018_1 = send_text(0x600 + NODE, [0x40, 0x18, 0x10, 0x01, 0, 0, 0, 0])
+
+
+def rss_kib(pid):
+    try:
+        with open(f"/proc/{pid}/status") as f:
+            return next(int(line.split()[1]) for line in f if line.startswith("VmRSS:"))
+    except OSError:
+        return None
+
+
+def test_a_python_can_client_survives_malformed_input(one_sim):
+    """Issue 13 point 4: python-can takes any `< error ... >` for an error frame and cannot parse
+    the text; the simulator answers a malformed frame with nothing, so the client reads on."""
+    bus = one_sim.bus()
+    try:
+        sock = bus._SocketCanDaemonBus__socket
+        sock.sendall(b"< send 60A 9 1 2 3 4 5 6 7 8 9 >< send 60A 2 1 >< send 800 0 >")
+        bus.send(can.Message(arbitration_id=0x000, data=[0x81, NODE], is_extended_id=False))
+        m = bus.recv(2)
+        assert m is not None and (m.arbitration_id, bytes(m.data)) == (0x70A, b"\x00")
+    finally:
+        bus.shutdown()
+
+
+def test_a_burst_of_a_thousand_reads_gets_a_thousand_answers(one_sim):
+    """Issue 13 point 1: 1000 SDO reads written at once, 1000 answers."""
+    observer = one_sim.bus()
+    s = raw_client(one_sim)
+    try:
+        s.sendall((READ_1018_1 * 1000).encode())
+        answers, deadline = 0, time.time() + 20
+        while answers < 1000 and time.time() < deadline:
+            m = observer.recv(0.5)
+            if m is not None and m.arbitration_id == 0x580 + NODE:
+                answers += 1
+        assert answers == 1000
+    finally:
+        s.close()
+        observer.shutdown()
+
+
+def test_a_save_behind_forty_reads_is_kept(state_dir):
+    """Issue 13 point 1: 40 reads and a 1010h "save" in one write: the save is answered, the
+    flash written, the value there after a power cycle."""
+    sim = Sim("--device", f"sgh10:node={NODE}", "--state-dir", state_dir)
+    try:
+        net = sim.network()
+        node = net.add_node(NODE, SGH10_EDS)
+        node.sdo["Producer heartbeat time"].raw = 777
+        answers = []
+        net.subscribe(0x580 + NODE, lambda _id, data, _t: answers.append(bytes(data)))
+        s = raw_client(sim)
+        save = send_text(0x600 + NODE, [0x23, 0x10, 0x10, 0x01, *b"save"])
+        s.sendall((READ_1018_1 * 40 + save).encode())
+        deadline = time.time() + 10
+        while len(answers) < 41 and time.time() < deadline:
+            time.sleep(0.05)
+        s.close()
+        assert len(answers) == 41
+        assert answers[-1] == bytes([0x60, 0x10, 0x10, 0x01, 0, 0, 0, 0]), "the save is answered"
+        net.disconnect()
+        sim.restart()
+        net = sim.network()
+        node = net.add_node(NODE, SGH10_EDS)
+        assert node.sdo["Producer heartbeat time"].raw == 777
+        net.disconnect()
+    finally:
+        sim.stop()
+
+
+def test_a_flooding_client_delays_no_one_else(one_sim):
+    """Issue 13 point 2: a client that writes frames as fast as it can waits for the bus; another
+    client's SDO reads are answered promptly and the simulator's memory stays bounded."""
+    before = rss_kib(one_sim.proc.pid)
+    s = raw_client(one_sim)
+    s.settimeout(0.1)
+    flood = (send_text(0x123, [0x11, 0x22, 0x33, 0x44, 0x55, 0x66, 0x77, 0x88]) * 100).encode()
+    stop = threading.Event()
+
+    def run():
+        while not stop.is_set():
+            try:
+                s.sendall(flood)
+            except OSError:
+                pass
+
+    flooder = threading.Thread(target=run)
+    flooder.start()
+    net = one_sim.network()
+    try:
+        time.sleep(0.5)
+        node = net.add_node(NODE, SGH10_EDS)
+        worst = 0.0
+        for _ in range(10):
+            t = time.time()
+            assert node.sdo[0x1018][1].raw == 0x195
+            worst = max(worst, time.time() - t)
+            time.sleep(0.1)
+        assert worst < 0.5, f"an SDO read waited {worst:.3f} s"
+        after = rss_kib(one_sim.proc.pid)
+        if before is not None and after is not None:
+            assert after < before + 40 * 1024, f"{before} KiB -> {after} KiB"
+    finally:
+        stop.set()
+        flooder.join()
+        s.close()
+        net.disconnect()
+
+
+def test_clients_that_send_garbage_and_never_read_cost_bounded_memory(one_sim):
+    """Issue 13 point 3: 20 clients sending garbage (text outside < >, unknown commands, bad
+    frames) and never reading: the simulator's memory stays bounded and it still serves."""
+    before = rss_kib(one_sim.proc.pid)
+    if before is None:
+        pytest.skip("no /proc")
+    garbage = (("x" * 1000) + "< bogus >< send 601 1 zz >< echo >").encode() * 200
+    socks = []
+
+    def run():
+        s = socket.create_connection(("127.0.0.1", one_sim.port))
+        s.settimeout(0.3)
+        socks.append(s)
+        deadline = time.time() + 3
+        while time.time() < deadline:
+            try:
+                s.sendall(garbage)
+            except OSError:
+                pass
+
+    threads = [threading.Thread(target=run) for _ in range(20)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    try:
+        after = rss_kib(one_sim.proc.pid)
+        assert after < before + 40 * 1024, f"{before} KiB -> {after} KiB"
+        net = one_sim.network()
+        try:
+            assert net.add_node(NODE, SGH10_EDS).sdo[0x1018][1].raw == 0x195
+        finally:
+            net.disconnect()
+    finally:
+        for s in socks:
+            s.close()
+
+
+def test_node_guarding_through_python_canopen(one_sim):
+    """Issue 13 point 5: python-canopen's node guarding (a remote frame, which python-can writes
+    as `< send 70A 0 >`) is answered, the toggle bit alternating."""
+    net = one_sim.network()
+    observer = one_sim.bus()
+    try:
+        node = net.add_node(NODE, SGH10_EDS)
+        assert node.sdo["Producer heartbeat time"].raw == 0, "guarding needs the heartbeat off"
+        node.nmt.start_node_guarding(0.1)
+        assert node.nmt.wait_for_heartbeat(timeout=2) == "PRE-OPERATIONAL"
+        answers, deadline = [], time.time() + 3
+        while len(answers) < 4 and time.time() < deadline:
+            m = observer.recv(0.5)
+            if m is not None and m.arbitration_id == 0x700 + NODE and len(m.data) == 1:
+                answers.append(m.data[0])
+        node.nmt.stop_node_guarding()
+        assert len(answers) == 4
+        assert [a & 0x7F for a in answers] == [0x7F] * 4
+        assert all((a ^ b) & 0x80 for a, b in zip(answers, answers[1:])), f"toggle: {answers}"
+    finally:
+        observer.shutdown()
+        net.disconnect()
+
+
+def test_python_can_remote_frames_and_sendrtr(one_sim):
+    """Issue 13 point 5: a remote frame as python-can writes it (`< send ID DLC >` without bytes)
+    and as socketcand's `< sendrtr ID DLC >`; clients receive `< rtr ID SEC.USEC DLC >`."""
+    bus = one_sim.bus()
+    s = raw_client(one_sim)
+    try:
+        bus.send(can.Message(arbitration_id=0x700 + NODE, is_remote_frame=True, dlc=1, is_extended_id=False))
+        got = s.recv(256).decode()
+        got = got[: got.index(">") + 1]  # the node's answer may follow in the same read
+        assert got.startswith(f"< rtr {0x700 + NODE:03X} ") and got.endswith(" 1 >"), got
+        m = bus.recv(1)
+        assert m.arbitration_id == 0x700 + NODE and bytes(m.data) == b"\x7f"
+        s.sendall(f"< sendrtr {0x700 + NODE:03X} 1 >".encode())
+        m = bus.recv(1)
+        assert m.arbitration_id == 0x700 + NODE and bytes(m.data) == b"\xff"
+    finally:
+        s.close()
+        bus.shutdown()
+
+
+def test_lss_fastscan_finds_both_sgh50_channels(state_dir):
+    """Issue 13 point 6: the two channels of a redundant SGH50 have their own serial numbers, so
+    LSS fastscan finds them one after the other and configures each on its own."""
+    sim = Sim("--device", "sgh50:redundant=true,node=unconfigured", "--state-dir", state_dir)
+    try:
+        net = sim.network()
+        found = []
+        for node_id in (40, 41):
+            net.lss.send_switch_state_global(net.lss.WAITING_STATE)
+            # Short: a fastscan waits this long for every bit nobody answers.
+            net.lss.RESPONSE_TIMEOUT = 0.1
+            ok, ident = net.lss.fast_scan()
+            assert ok, f"fastscan {len(found) + 1}"
+            found.append(ident)
+            net.lss.RESPONSE_TIMEOUT = 1.0
+            net.lss.configure_node_id(node_id)
+            net.lss.store_configuration()
+            net.lss.send_switch_state_global(net.lss.WAITING_STATE)
+            net.nmt.send_command(0x82)  # reset communication: the new node-ID applies
+            time.sleep(0.2)
+        assert found[0][3] != found[1][3], found
+        net.lss.send_switch_state_global(net.lss.WAITING_STATE)
+        net.lss.RESPONSE_TIMEOUT = 0.1
+        assert net.lss.fast_scan() == (False, None), "nobody left unconfigured"
+        for node_id, ident in zip((40, 41), found):
+            node = net.add_node(node_id, str(EDS / "SGH50.eds"))
+            assert node.sdo[0x1018][4].raw == ident[3]
+        net.disconnect()
+    finally:
+        sim.stop()

@@ -11,7 +11,7 @@
 use std::hint::black_box;
 
 use od_core::devices::{sgh10, sgh50, wv5800m};
-use od_core::node::{Device, Node, Output};
+use od_core::node::{CanopenDevice, Node, Output};
 use od_core::storage::{identity, ParamFlash, Region};
 use od_core::{Bitrate, CanId, Frame, Instant};
 
@@ -154,7 +154,7 @@ const NODE_ID: u8 = 1;
 
 /// Runs `n` operations of workload `w` on a node of `device` (node-ID 1, OPERATIONAL,
 /// heartbeat 1000 ms) and checks their outcome; `Err` says what went wrong.
-pub fn run<D: Device>(device: D, w: Workload, n: u64) -> Result<Extra, String> {
+pub fn run<D: CanopenDevice>(device: D, w: Workload, n: u64) -> Result<Extra, String> {
     let mut params = ParamFlash::new(RamFlash::new(REGION.pages as usize), REGION, identity(device.table()));
     let mut node = Node::new(device, NODE_ID, Bitrate::K500);
     node.poll(Instant::ZERO);
@@ -230,7 +230,7 @@ fn heartbeat_1000() -> Frame {
 }
 
 /// Hands `frame` to the node `n` times, taking one output after each; how many were frames.
-fn answers<D: Device>(node: &mut Node<D>, frame: &Frame, n: u64) -> u64 {
+fn answers<D: CanopenDevice>(node: &mut Node<D>, frame: &Frame, n: u64) -> u64 {
     let mut frames = 0;
     for _ in 0..n {
         black_box(&mut *node).on_frame(black_box(frame), black_box(NOW));
@@ -244,7 +244,7 @@ fn answers<D: Device>(node: &mut Node<D>, frame: &Frame, n: u64) -> u64 {
 
 /// One 1010h.01 "save" as the firmware performs it: the request, the store the node asks for,
 /// its result, and the SDO answer taken. Whether all of it happened.
-fn save<D: Device>(node: &mut Node<D>, params: &mut ParamFlash<RamFlash>, request: &Frame) -> bool {
+fn save<D: CanopenDevice>(node: &mut Node<D>, params: &mut ParamFlash<RamFlash>, request: &Frame) -> bool {
     node.on_frame(request, NOW);
     let Some(Output::Store(groups)) = node.next_output() else { return false };
     let result = params.save(node.core(), groups);
@@ -254,7 +254,11 @@ fn save<D: Device>(node: &mut Node<D>, params: &mut ParamFlash<RamFlash>, reques
 }
 
 /// One more operation, outside the measured loop, whose outputs are checked in full.
-fn check_one<D: Device>(node: &mut Node<D>, params: &mut ParamFlash<RamFlash>, w: Workload) -> Result<(), String> {
+fn check_one<D: CanopenDevice>(
+    node: &mut Node<D>,
+    params: &mut ParamFlash<RamFlash>,
+    w: Workload,
+) -> Result<(), String> {
     let sdo = |cmd: u8, index: u16, sub: u8| {
         move |f: &Frame| {
             f.id == CanId::Std(0x580 + NODE_ID as u16)
@@ -301,7 +305,7 @@ fn check_one<D: Device>(node: &mut Node<D>, params: &mut ParamFlash<RamFlash>, w
 }
 
 /// Exactly one output, a frame that `expect` accepts.
-fn one_frame<D: Device>(node: &mut Node<D>, w: Workload, expect: impl Fn(&Frame) -> bool) -> Result<(), String> {
+fn one_frame<D: CanopenDevice>(node: &mut Node<D>, w: Workload, expect: impl Fn(&Frame) -> bool) -> Result<(), String> {
     match (node.next_output(), node.next_output()) {
         (Some(Output::Frame(f)), None) if expect(&f) => Ok(()),
         (first, second) => Err(format!("{w:?}: unexpected outputs {first:?}, {second:?}")),

@@ -16,7 +16,7 @@
 use std::fmt::Write;
 
 use od_core::devices::wv5800m::{table_of, Model, Turns, Variant};
-use od_core::node::Device;
+use od_core::node::{CanopenDevice, Device};
 use od_core::od::{Access, CoreHook, DataType, Default, Entry, Hook, Kind};
 use od_core::pdo::{rpdo_type_allowed, tpdo_type_allowed};
 use od_core::Bitrate;
@@ -59,6 +59,8 @@ pub enum Part {
     Sgh50,
     /// One of the eight WV5800M / WH5800M part numbers (D-WV-1).
     Wv5800m(Variant),
+    /// The AP10T set point display.
+    Ap10t,
 }
 
 /// One checked-in EDS: what it says beyond the dictionary, the dictionary, and the part.
@@ -156,6 +158,25 @@ pub fn devices() -> Vec<EdsDevice> {
             part: Part::Wv5800m(variant),
         });
     }
+    // The AP10T: its own bit-rate coding (5F0Ah.03) and no LSS.
+    let ap10t = od_core::devices::ap10t::Ap10t::new();
+    v.push(EdsDevice {
+        info: EdsInfo {
+            file_name: "AP10T.eds",
+            description: "SIKO AP10T set point display, CANopen (CiA 301; CiA 406 objects, no LSS)",
+            file_version: 1,
+            file_revision: 0,
+            creation_date: "11-25-2026",
+            creation_time: "12:00PM",
+            created_by: "SIKO GmbH",
+            vendor_name: "SIKO GmbH",
+            order_code: "AP10T",
+            bitrates: rates(&ap10t),
+            lss: ap10t.has_lss(),
+        },
+        table: ap10t.table(),
+        part: Part::Ap10t,
+    });
     v
 }
 
@@ -169,7 +190,9 @@ pub fn declared_limits(table: &[Entry], e: &Entry) -> Option<(i64, i64)> {
         Some(allowed) => {
             let lo = (0..=255u8).find(|v| allowed(*v))? as i64;
             let hi = (0..=255u8).rev().find(|v| allowed(*v))? as i64;
-            if (lo, hi) == (0, 255) {
+            // The whole type without a hole is no limit; with holes (the AP10T's RPDO types:
+            // 0..240, FEh, FFh) the range is declared so that its holes can be.
+            if (lo, hi) == (0, 255) && (0..=255u8).all(&allowed) {
                 None
             } else {
                 Some((lo, hi))
@@ -202,7 +225,10 @@ fn allowed_u8(table: &[Entry], e: &Entry) -> Option<Box<dyn Fn(u8) -> bool>> {
 /// SGH10: 241..=251): what LowLimit/HighLimit cannot say. Only for the 8-bit entries whose set a
 /// core hook decides, and 1017h (D-HB-1: 1..9 refused).
 pub fn holes(table: &[Entry], e: &Entry) -> Vec<(i64, i64)> {
-    let refused: Vec<i64> = if e.hook == Hook::Core(CoreHook::HeartbeatTime) {
+    // 1017h (D-HB-1) and the AP10T's external heartbeat 5F09h.01 (D-AP-19): 1..9 ms refused.
+    let external_heartbeat = (e.index, e.sub) == (0x5F09, 1)
+        && e.hook == Hook::Device(od_core::devices::ap10t::table::hooks::EXTERNAL_HEARTBEAT);
+    let refused: Vec<i64> = if e.hook == Hook::Core(CoreHook::HeartbeatTime) || external_heartbeat {
         (1..=9).collect()
     } else if let (Some(allowed), Some((lo, hi))) = (allowed_u8(table, e), declared_limits(table, e)) {
         (lo..=hi).filter(|v| !allowed(*v as u8)).collect()
@@ -231,6 +257,9 @@ fn access(a: Access) -> &'static str {
         Access::Wo => "wo",
         Access::Rw => "rw",
         Access::Const => "const",
+        // CiA 306 has no "no access": a PDO-only object is read by its TPDO, so "ro" (a
+        // configurator maps it; an SDO read answers 06010000h).
+        Access::PdoOnly => "ro",
     }
 }
 

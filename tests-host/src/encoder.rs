@@ -11,7 +11,9 @@ use std::collections::VecDeque;
 use std::rc::Rc;
 
 use od_core::encoder::{Encoder, SensorFault};
-use od_core::node::{BusEvent, Core, Node, Output};
+use od_core::lss::Lss;
+use od_core::nmt::NmtState;
+use od_core::node::{BusEvent, CanopenDevice, Context, Core, Node, Output, RxIds};
 use od_core::{Frame, Instant};
 
 use crate::bus::Station;
@@ -114,13 +116,13 @@ impl Sensor {
 }
 
 /// A node of encoder `E` with a sampled [`Sensor`], as a bus station.
-pub struct Sensed<E: Encoder> {
+pub struct Sensed<E: Encoder + CanopenDevice> {
     node: Node<E>,
     sensor: Sensor,
     next_sample: Instant,
 }
 
-impl<E: Encoder> Sensed<E> {
+impl<E: Encoder + CanopenDevice> Sensed<E> {
     /// Node `node` fed by `sensor`; the first sample is taken when the node is first polled.
     pub fn new(node: Node<E>, sensor: Sensor) -> Sensed<E> {
         Sensed { node, sensor, next_sample: Instant::ZERO }
@@ -136,7 +138,7 @@ impl<E: Encoder> Sensed<E> {
     }
 }
 
-impl<E: Encoder> Station for Sensed<E> {
+impl<E: Encoder + CanopenDevice> od_core::Station for Sensed<E> {
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
         self.sensor.0.borrow_mut().now = now;
         self.node.on_frame(frame, now);
@@ -183,12 +185,33 @@ impl<E: Encoder> Station for Sensed<E> {
         self.node.next_output()
     }
 
-    fn store_done(&mut self, ok: bool, now: Instant) {
-        self.node.store_done(if ok { Ok(()) } else { Err(()) }, now)
+    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.node.store_done(result, now)
     }
 
-    fn core(&self) -> &Core {
-        self.node.core()
+    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.node.on_bus_event(event, now)
+    }
+
+    fn rx_ids(&self) -> RxIds {
+        self.node.rx_ids()
+    }
+
+    fn rx_ids_generation(&self) -> u32 {
+        self.node.rx_ids_generation()
+    }
+
+    fn context(&self) -> &Context {
+        self.node.context()
+    }
+}
+
+impl<E: Encoder + CanopenDevice> Station for Sensed<E> {
+    fn nmt(&self) -> Option<NmtState> {
+        Some(self.node.nmt_state())
+    }
+    fn lss(&self) -> Option<&Lss> {
+        Some(self.node.lss())
     }
 }
 
@@ -262,31 +285,51 @@ pub fn sdo_read(bus: &mut crate::bus::Bus, node: u8, index: u16, sub: u8) -> u32
     u32::from_le_bytes(v)
 }
 
-/// Writes `value` to (index, sub) of a node off the bus, as the SDO server does for an entry
-/// without a core hook: the dictionary's checks, the device's hook, then the value. For
+/// Writes `value` to (index, sub) of a node off the bus, through the dictionary access path
+/// as the SDO server does (checks, hooks, links, then the value), in any NMT state: for
 /// property tests that drive a device directly.
-pub fn direct_write<E: Encoder>(
+pub fn direct_write<E: Encoder + CanopenDevice>(
     node: &mut Node<E>,
     index: u16,
     sub: u8,
     value: u32,
     now: Instant,
 ) -> Result<(), od_core::Abort> {
-    let (device, core) = node.split();
+    let core = node.context();
     let pos = core.od.find(index, sub)?;
     let size = core.od.entry(pos).dtype.size();
-    let value = core.od.check_write(pos, &value.to_le_bytes()[..size])?;
-    match core.od.entry(pos).hook {
-        od_core::od::Hook::Device(_) => device.on_write(core, pos, value, now)?,
-        od_core::od::Hook::None => {}
-        od_core::od::Hook::Core(h) => panic!("direct_write: {index:04X}h.{sub:02X} has core hook {h:?}"),
-    }
-    core.od.set(pos, value);
-    Ok(())
+    node.write(index, sub, &value.to_le_bytes()[..size], now).map(|_| ())
 }
 
 /// The value of (index, sub) as its type reads it (sign-extended for INTEGERn).
 pub fn value(core: &Core, index: u16, sub: u8) -> i64 {
     let pos = core.od.pos(index, sub).unwrap_or_else(|| panic!("no {index:04X}h.{sub:02X}"));
     core.od.entry(pos).dtype.to_i64(core.od.get(pos))
+}
+
+/// What another transport's station wrapper needs of a [`Sensor`] (the J1939 one in
+/// [`crate::j1939`]).
+impl Sensor {
+    /// The station saw `now`.
+    pub(crate) fn tick(&self, now: Instant) {
+        self.0.borrow_mut().now = now;
+    }
+
+    /// The next CAN controller event waiting for the node.
+    pub(crate) fn next_event(&self) -> Option<BusEvent> {
+        self.0.borrow_mut().events.pop_front()
+    }
+
+    /// One sample at `now`.
+    pub(crate) fn sample(&self, now: Instant) -> Result<u32, SensorFault> {
+        let mut s = self.0.borrow_mut();
+        s.samples += 1;
+        s.read(now)
+    }
+
+    /// When the station must run for a waiting event, if any.
+    pub(crate) fn event_due(&self) -> Option<Instant> {
+        let s = self.0.borrow();
+        (!s.events.is_empty()).then_some(s.now)
+    }
 }

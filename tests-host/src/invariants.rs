@@ -26,7 +26,8 @@ use std::fmt;
 
 use od_core::devices::{sgh10, sgh50, wv5800m};
 use od_core::encoder::{Encoder, SensorFault};
-use od_core::node::{BusEvent, CanError, Core, Node, Output};
+use od_core::lss::Lss;
+use od_core::node::{BusEvent, CanError, CanopenDevice, Core, Node, Output};
 use od_core::od::{DataType, Entry, Group, GroupMask, Hook};
 use od_core::storage::{identity, Image, Loaded, ParamFlash, Record, Region};
 use od_core::{CanId, Frame, Instant, NmtState};
@@ -119,9 +120,13 @@ pub trait Subject {
     fn sample(&mut self, raw: Result<u32, SensorFault>, now: Instant);
     /// [`Node::core`].
     fn core(&self) -> &Core;
+    /// [`Node::lss`].
+    fn lss(&self) -> &Lss;
+    /// [`Node::nmt_state`].
+    fn nmt_state(&self) -> NmtState;
 }
 
-impl<E: Encoder> Subject for Node<E> {
+impl<E: Encoder + CanopenDevice> Subject for Node<E> {
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
         Node::on_frame(self, frame, now)
     }
@@ -146,6 +151,12 @@ impl<E: Encoder> Subject for Node<E> {
     }
     fn core(&self) -> &Core {
         Node::core(self)
+    }
+    fn lss(&self) -> &Lss {
+        Node::lss(self)
+    }
+    fn nmt_state(&self) -> NmtState {
+        Node::nmt_state(self)
     }
 }
 
@@ -677,7 +688,8 @@ struct Owned {
 }
 
 impl Owned {
-    fn of(core: &Core) -> Owned {
+    fn of(node: &dyn Subject) -> Owned {
+        let core = node.core();
         let configured = core.configured();
         let emcy = core.od.value(0x1014, 0).filter(|v| v & 0x8000_0000 == 0).map(CanId::from_cob_id);
         let mut tpdos = Vec::new();
@@ -688,7 +700,7 @@ impl Owned {
                 }
             }
         }
-        Owned { node_id: core.node_id, configured, lss: core.lss.enabled(), emcy, tpdos, nmt: core.nmt }
+        Owned { node_id: core.node_id, configured, lss: node.lss().enabled(), emcy, tpdos, nmt: node.nmt_state() }
     }
 
     /// Is the node allowed to send `f` in this configuration?
@@ -862,7 +874,7 @@ impl Rig {
         self.apply(Action::Advance(SDO_TIMEOUT_US + 100_000))?;
         ensure!(self.sdo == SdoModel::Idle, "SDO transfer still open after its timeout");
         let core = self.node.core();
-        if core.configured() && !core.lss.switching() {
+        if core.configured() && !self.node.lss().switching() {
             let id = core.node_id;
             self.apply(Action::Frame(Frame::std(0, &[0x81, id])))?;
             self.apply(Action::Advance(0))?;
@@ -871,7 +883,7 @@ impl Rig {
                 // The reset activated a pending node-ID FFh (LSS "unconfigured"): LSS only.
                 return self.power_cycle();
             }
-            ensure!(core.nmt == NmtState::PreOperational, "no boot-up after reset node");
+            ensure!(self.node.nmt_state() == NmtState::PreOperational, "no boot-up after reset node");
             let answer = self.sdo_answer(crate::encoder::upload_request(0x1000, 0))?;
             let want = self.node.core().od.value(0x1000, 0).unwrap_or(0).to_le_bytes();
             ensure!(
@@ -932,9 +944,9 @@ impl Rig {
     /// Feeds one input, carries out its outputs and checks everything; returns the frames sent.
     fn input_collect(&mut self, input: Input) -> Result<Vec<Frame>, Violation> {
         self.stats.inputs += 1;
-        let before = Owned::of(self.node.core());
-        let lss_before = self.node.core().lss.state();
-        let switching_before = self.node.core().lss.switching();
+        let before = Owned::of(&*self.node);
+        let lss_before = self.node.lss().state();
+        let switching_before = self.node.lss().switching();
         let now = self.now;
         match input {
             Input::Frame(f) => self.node.on_frame(&f, now),
@@ -960,8 +972,8 @@ impl Rig {
             }
         }
         self.stats.frames_out += sent.len() as u64;
-        let after = Owned::of(self.node.core());
-        if self.node.core().lss.state() == od_core::lss::LssState::Configuration {
+        let after = Owned::of(&*self.node);
+        if self.node.lss().state() == od_core::lss::LssState::Configuration {
             self.stats.lss_configuration += 1;
         }
         self.check(&input, &before, &after, lss_before, switching_before, &sent, &stores)
@@ -980,7 +992,6 @@ impl Rig {
         sent: &[Frame],
         stores: &[GroupMask],
     ) -> Result<(), Violation> {
-        let core = self.node.core();
         // Identifiers and states.
         for f in sent {
             ensure!(before.allows(f) || after.allows(f), "sent {f:?}, not an identifier it owns in this state");
@@ -1001,7 +1012,7 @@ impl Rig {
         let lss_frame = matches!(input, Input::Frame(f) if f.id == CanId::Std(0x7E5));
         match input {
             Input::Frame(f) if f.id == CanId::Std(0) => {
-                let nmt = od_core::nmt::NmtRequest::parse(f);
+                let nmt = od_core::wire::nmt::NmtRequest::parse(f.payload());
                 let handled = before.configured && before.nmt != NmtState::Initialising;
                 let want = match nmt {
                     Some(r) if handled && r.addresses(before.node_id) => match r.command.cs() {
@@ -1033,7 +1044,7 @@ impl Rig {
                     after.nmt
                 );
                 ensure!(
-                    !(after.configured && after.nmt == NmtState::Initialising && !core.lss.switching()),
+                    !(after.configured && after.nmt == NmtState::Initialising && !self.node.lss().switching()),
                     "still initialising after a poll"
                 );
                 if let Some(t) = self.node.next_deadline() {
@@ -1053,7 +1064,7 @@ impl Rig {
             after.node_id
         );
         // LSS.
-        let lss_after = core.lss.state();
+        let lss_after = self.node.lss().state();
         ensure!(lss_after == lss_before || lss_frame || reset, "LSS {lss_before:?} -> {lss_after:?} on {input:?}");
         let lss_answers = sent.iter().filter(|f| f.id == CanId::Std(0x7E4)).count();
         let lss_store_done = matches!(input, Input::StoreDone { origin: StoreOrigin::Lss, .. });
@@ -1200,7 +1211,7 @@ impl Rig {
                 }
                 if let SdoModel::Open { since, .. } = self.sdo {
                     let serving = after.configured
-                        && !self.node.core().lss.switching()
+                        && !self.node.lss().switching()
                         && matches!(after.nmt, NmtState::PreOperational | NmtState::Operational);
                     ensure!(
                         !(serving && self.now.micros_since(since) >= SDO_TIMEOUT_US),
@@ -1226,7 +1237,7 @@ impl Rig {
         }
         // The server drops a transfer and a waiting save on NMT stop, on every reset and
         // when an LSS bit-rate switch ends.
-        let nmt_reset = matches!(input, Input::Frame(f) if od_core::nmt::NmtRequest::parse(f).is_some_and(|r| {
+        let nmt_reset = matches!(input, Input::Frame(f) if f.id == CanId::Std(0) && od_core::wire::nmt::NmtRequest::parse(f.payload()).is_some_and(|r| {
             before.configured && before.nmt != NmtState::Initialising && r.addresses(before.node_id)
                 && matches!(r.command.cs(), 0x02 | 0x81 | 0x82)
         }));
@@ -1343,14 +1354,16 @@ pub fn run_flash(data: &[u8]) {
 /// of bounded size, every parsed `send` is a valid frame that round-trips through the client's
 /// formatting, and every error answer is one well-formed message. Panics with the violation.
 pub fn run_socketcand(data: &[u8]) {
-    use crate::sim::socketcand::{error_message, frame_message, parse, send_message, split_messages, Request};
+    use crate::sim::socketcand::{
+        frame_message, parse, send_message, split_messages, Refused, Request, UNKNOWN_COMMAND,
+    };
     let mut buf = String::new();
     for chunk in data.split(|&b| b == 0) {
         buf.push_str(&String::from_utf8_lossy(chunk));
         for msg in split_messages(&mut buf) {
             let text = match msg.map(|m| parse(&m)) {
                 Ok(Ok(Request::Send(f))) => {
-                    assert!(f.len <= 8 && !f.rtr, "parsed {f:?}");
+                    assert!(f.len <= 8 && (!f.rtr || f.data == [0; 8]), "parsed {f:?}");
                     match f.id {
                         CanId::Std(id) => assert!(id <= 0x7FF, "{f:?}"),
                         CanId::Ext(id) => assert!(id <= 0x1FFF_FFFF, "{f:?}"),
@@ -1360,7 +1373,9 @@ pub fn run_socketcand(data: &[u8]) {
                     frame_message(&f, u64::MAX)
                 }
                 Ok(Ok(_)) => continue,
-                Ok(Err(e)) | Err(e) => error_message(&e),
+                // socketcand drops a malformed message without an answer.
+                Ok(Err(Refused::Malformed(_))) | Err(Refused::Malformed(_)) => continue,
+                Ok(Err(Refused::Unknown)) | Err(Refused::Unknown) => UNKNOWN_COMMAND.to_string(),
             };
             assert!(
                 text.starts_with('<') && text.ends_with('>') && text.matches(['<', '>']).count() == 2,

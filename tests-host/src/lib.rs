@@ -1,16 +1,18 @@
 //! Host-side harness for the SIKO devices: a virtual CAN bus with a virtual clock on which
 //! scenario tests replay the manuals' examples, and (in `sim`) the real-time simulator.
 
+pub mod ap10t;
 pub mod bench;
 pub mod bus;
 pub mod eds;
 pub mod encoder;
 pub mod flash;
 pub mod invariants;
+pub mod j1939;
 pub mod segment;
 pub mod sim;
 
-use od_core::node::Device;
+use od_core::node::{CanopenDevice, Device};
 use od_core::od::Entry;
 
 /// A device with a dictionary and no behaviour of its own: what the communication-profile
@@ -23,3 +25,5 @@ impl Device for TableOnly {
         self.0
     }
 }
+
+impl CanopenDevice for TableOnly {}

@@ -6,51 +6,47 @@
 use std::any::Any;
 
 use embedded_storage::nor_flash::NorFlash;
-use od_core::node::{Core, Device, Node, Output};
+use od_core::lss::Lss;
+use od_core::nmt::NmtState;
+use od_core::node::{CanopenDevice, Context, Node, Output};
 use od_core::od::GroupMask;
 use od_core::storage::{Loaded, ParamFlash};
 use od_core::{Bitrate, Frame, Instant};
 
 use crate::flash::{FileFlash, RamFlash};
 
-/// Anything that can sit on a segment: a node of any device.
-pub trait Station {
-    /// A frame from the bus.
-    fn on_frame(&mut self, frame: &Frame, now: Instant);
-    /// Timers.
-    fn poll(&mut self, now: Instant);
-    /// When `poll` must next run.
-    fn next_deadline(&self) -> Option<Instant>;
-    /// The next output.
-    fn next_output(&mut self) -> Option<Output>;
-    /// Report the result of an `Output::Store`.
-    fn store_done(&mut self, ok: bool, now: Instant);
-    /// The node's shared state (what a store persists).
-    fn core(&self) -> &Core;
+/// Anything that can sit on a segment: a node of any device, driven through the core's shell
+/// interface ([`od_core::Station`]), with what the tests and the live view look at.
+pub trait Station: od_core::Station {
+    /// The node's shared state (the former name of [`od_core::Station::context`]).
+    fn core(&self) -> &Context {
+        self.context()
+    }
+    /// The NMT state, if the station is a CANopen node.
+    fn nmt(&self) -> Option<NmtState> {
+        None
+    }
+    /// The LSS slave, if the station is a CANopen node.
+    fn lss(&self) -> Option<&Lss> {
+        None
+    }
     /// What the device shows its user (LEDs, screen) as text, if it has anything to show.
     fn panel(&self) -> Option<String> {
         None
     }
+    /// The station as `Any`, for a test or the simulator to reach a concrete station (an
+    /// AP10T's keys); `None` where the station does not offer it.
+    fn as_any_mut(&mut self) -> Option<&mut dyn Any> {
+        None
+    }
 }
 
-impl<D: Device> Station for Node<D> {
-    fn on_frame(&mut self, frame: &Frame, now: Instant) {
-        Node::on_frame(self, frame, now)
+impl<D: CanopenDevice> Station for Node<D> {
+    fn nmt(&self) -> Option<NmtState> {
+        Some(self.nmt_state())
     }
-    fn poll(&mut self, now: Instant) {
-        Node::poll(self, now)
-    }
-    fn next_deadline(&self) -> Option<Instant> {
-        Node::next_deadline(self)
-    }
-    fn next_output(&mut self) -> Option<Output> {
-        Node::next_output(self)
-    }
-    fn store_done(&mut self, ok: bool, now: Instant) {
-        Node::store_done(self, if ok { Ok(()) } else { Err(()) }, now)
-    }
-    fn core(&self) -> &Core {
-        Node::core(self)
+    fn lss(&self) -> Option<&Lss> {
+        Some(Node::lss(self))
     }
 }
 
@@ -79,7 +75,7 @@ pub trait NodeFlash {
     /// What the pages hold.
     fn load(&mut self) -> Loaded;
     /// Carries out an `Output::Store`; true if it worked.
-    fn save(&mut self, core: &Core, mask: GroupMask) -> bool;
+    fn save(&mut self, core: &Context, mask: GroupMask) -> bool;
     /// The concrete [`ParamFlash`], to reach the flash itself.
     fn as_any_mut(&mut self) -> &mut dyn Any;
 }
@@ -91,7 +87,7 @@ impl<F: PowerFlash> NodeFlash for ParamFlash<F> {
     fn load(&mut self) -> Loaded {
         ParamFlash::load(self)
     }
-    fn save(&mut self, core: &Core, mask: GroupMask) -> bool {
+    fn save(&mut self, core: &Context, mask: GroupMask) -> bool {
         ParamFlash::save(self, core, mask).is_ok()
     }
     fn as_any_mut(&mut self) -> &mut dyn Any {
@@ -186,7 +182,7 @@ impl Segment {
     }
 
     /// Node `n`'s shared state.
-    pub fn core(&self, n: usize) -> &Core {
+    pub fn core(&self, n: usize) -> &Context {
         self.nodes[n].station.core()
     }
 
@@ -241,7 +237,7 @@ impl Segment {
                                     Some(f) => f.params.save(slot.station.core(), mask),
                                     None => true,
                                 };
-                            slot.station.store_done(ok, now);
+                            slot.station.store_done(if ok { Ok(()) } else { Err(()) }, now);
                         }
                         Output::SetBitrate(b) => self.nodes[i].bitrate = b,
                     }

@@ -250,7 +250,7 @@ fn run(kind: Kind) -> Figures {
         kind.name(),
         beats.len(),
         fig.node_frames,
-        node.core().nmt
+        node.nmt_state()
     );
     assert!(tpdos.len() as u64 >= SECONDS * 100 - 1, "{}: {} TPDO1", kind.name(), tpdos.len());
     fig.sdo = master.answered;

@@ -7,11 +7,12 @@
 
 use std::path::PathBuf;
 
+use od_core::devices::ap10t::Ap10t;
 use od_core::devices::sgh10::{Sgh10, Variant as Sgh10Variant};
 use od_core::devices::sgh50::{Sgh50, Variant as Sgh50Variant};
 use od_core::devices::wv5800m::Wv5800m;
 use od_core::encoder::Encoder;
-use od_core::node::{Device, Output};
+use od_core::node::{CanopenDevice, Output};
 use od_core::od::{CoreHook, DataType, Default, Entry, Hook, Kind};
 use od_core::{Bitrate, Frame, Instant, Node};
 use tests_host::eds::{declared_limits, devices, generate, holes, table_json, EdsDevice, Part};
@@ -71,10 +72,11 @@ fn one_eds_per_part_number() {
         "WH5800M-256.eds",
         "WH5800M-16.eds",
         "WH5800M-1.eds",
+        "AP10T.eds",
     ] {
         assert!(names.contains(&name), "{name} missing");
     }
-    assert_eq!(names.len(), 10);
+    assert_eq!(names.len(), 11);
 }
 
 #[test]
@@ -117,7 +119,7 @@ fn every_default_lies_within_its_limits() {
 
 /// What the device answers to an expedited SDO download of `value` to `e`, on a node just
 /// booted (PRE-OPERATIONAL, node-ID 1) with one valid sensor sample: `Ok` or the abort code.
-fn download<D: Device + Encoder>(device: D, raw: u32, e: &Entry, value: i64) -> Result<(), u32> {
+fn download<D: CanopenDevice + Encoder>(device: D, raw: u32, e: &Entry, value: i64) -> Result<(), u32> {
     let mut node = Node::new(device, 1, Bitrate::K500);
     let t = Instant::from_millis(1);
     node.poll(t);
@@ -125,6 +127,19 @@ fn download<D: Device + Encoder>(device: D, raw: u32, e: &Entry, value: i64) -> 
         let (device, core) = node.split();
         device.on_sample(core, Ok(raw), t);
     }
+    answer(node, e, value)
+}
+
+/// What a display answers to an expedited SDO download of `value` to `e` (node-ID 1, just
+/// booted).
+fn download_display(e: &Entry, value: i64) -> Result<(), u32> {
+    let mut node = Node::new(Ap10t::new(), 1, Bitrate::K500);
+    node.poll(Instant::from_millis(1));
+    answer(node, e, value)
+}
+
+fn answer<D: CanopenDevice>(mut node: Node<D>, e: &Entry, value: i64) -> Result<(), u32> {
+    let t = Instant::from_millis(1);
     while node.next_output().is_some() {}
     let size = e.dtype.size();
     let cmd = 0x23 | ((4 - size as u8) << 2);
@@ -203,6 +218,7 @@ fn probe_part(d: &EdsDevice) -> Vec<String> {
                 Part::Sgh10 => download(Sgh10::new(Sgh10Variant::Sgh10), 100_000, e, value),
                 Part::Sgh50 => download(Sgh50::new(Sgh50Variant::Single), 100_000, e, value),
                 Part::Wv5800m(v) => download(Wv5800m::new(v), 8192, e, value),
+                Part::Ap10t => download_display(e, value),
             };
             let within = limits.is_none_or(|(lo, hi)| (lo..=hi).contains(&value));
             let hole = holes.iter().any(|&(lo, hi)| (lo..=hi).contains(&value));
@@ -236,8 +252,10 @@ fn every_enforced_limit_is_declared() {
 /// SGH10 and WV5800M manuals print it (the SGH50's prints none).
 #[test]
 fn serial_number_defaults_agree() {
-    for EdsDevice { info, table, .. } in devices() {
+    for EdsDevice { info, table, part } in devices() {
         let serial = table.iter().find(|e| (e.index, e.sub) == (0x1018, 4)).expect("1018h sub 4");
-        assert_eq!(serial.default, Default::Value(1), "{}", info.file_name);
+        // The AP10T's is a constant "compatibility entry", FFFFFFFFh as its manual prints it.
+        let want = if part == Part::Ap10t { 0xFFFF_FFFF } else { 1 };
+        assert_eq!(serial.default, Default::Value(want), "{}", info.file_name);
     }
 }

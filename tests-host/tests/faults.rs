@@ -17,8 +17,10 @@ use std::rc::Rc;
 use od_core::devices::{sgh10, sgh50, wv5800m};
 use od_core::encoder::Encoder;
 use od_core::led::{LedState, Leds};
-use od_core::node::{BusEvent, CanError, Core, Node, Output};
-use od_core::{Bitrate, CanId, Frame, Instant};
+use od_core::lss::Lss;
+use od_core::node::{BusEvent, CanError, CanopenDevice, Core, Node, Output};
+use od_core::shell::RxIds;
+use od_core::{Bitrate, CanId, Frame, Instant, NmtState};
 use tests_host::bus::{Bus, Sender, Station};
 use tests_host::encoder::{download_request, sdo_exchange, sdo_read, sdo_write, upload_request, Sensed, Sensor};
 
@@ -30,14 +32,17 @@ struct WithLeds {
 
 impl WithLeds {
     fn refresh(&mut self) {
-        let (device, core) = self.inner.node().split();
-        self.leds.set(Some(device.leds(core)));
+        self.leds.set(Some(self.inner.node().device().leds()));
     }
 }
 
-impl Station for WithLeds {
+impl od_core::Station for WithLeds {
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
         self.inner.on_frame(frame, now);
+        self.refresh();
+    }
+    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.inner.on_bus_event(event, now);
         self.refresh();
     }
     fn poll(&mut self, now: Instant) {
@@ -50,11 +55,26 @@ impl Station for WithLeds {
     fn next_output(&mut self) -> Option<Output> {
         self.inner.next_output()
     }
-    fn store_done(&mut self, ok: bool, now: Instant) {
-        self.inner.store_done(ok, now)
+    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.inner.store_done(result, now)
     }
-    fn core(&self) -> &Core {
-        self.inner.core()
+    fn rx_ids(&self) -> RxIds {
+        self.inner.rx_ids()
+    }
+    fn rx_ids_generation(&self) -> u32 {
+        self.inner.rx_ids_generation()
+    }
+    fn context(&self) -> &Core {
+        self.inner.context()
+    }
+}
+
+impl Station for WithLeds {
+    fn nmt(&self) -> Option<NmtState> {
+        Station::nmt(&self.inner)
+    }
+    fn lss(&self) -> Option<&Lss> {
+        Station::lss(&self.inner)
     }
 }
 
@@ -70,7 +90,7 @@ struct Dut {
     device_type: u32,
 }
 
-fn sensed<E: Encoder + 'static>(device: E, id: u8, raw: u32) -> (Sensed<E>, Sensor) {
+fn sensed<E: Encoder + CanopenDevice + 'static>(device: E, id: u8, raw: u32) -> (Sensed<E>, Sensor) {
     let sensor = Sensor::new(raw);
     (Sensed::new(Node::new(device, id, Bitrate::K500), sensor.clone()), sensor)
 }
@@ -281,7 +301,7 @@ fn a_babbling_node_on_its_own_identifiers() {
         let beats = seen.iter().filter(|s| s.frame.id == CanId::Std(0x700 + id)).count();
         assert_eq!(beats, 10, "{}: heartbeats under the babble", d.name);
         assert!(seen.iter().all(|s| s.frame.id == CanId::Std(0x700 + id)), "{}: only heartbeats: {seen:02X?}", d.name);
-        assert_eq!(d.bus.station(0).core().nmt, od_core::NmtState::PreOperational);
+        assert_eq!(d.bus.station(0).nmt(), Some(NmtState::PreOperational));
         d.answers_normally();
     }
 }
@@ -362,7 +382,7 @@ fn an_nmt_reset_storm() {
         let seen: Vec<_> = d.bus.drain().into_iter().filter(|s| s.from == Sender::Node(0)).collect();
         let boots = seen.iter().filter(|s| s.frame.id == CanId::Std(0x700 + id) && s.frame.payload() == [0]).count();
         assert_eq!(boots, 1000, "{}: one boot-up per reset", d.name);
-        assert_eq!(d.bus.station(0).core().nmt, od_core::NmtState::PreOperational);
+        assert_eq!(d.bus.station(0).nmt(), Some(NmtState::PreOperational));
         assert_eq!(sdo_read(&mut d.bus, d.id, 0x1017, 0), 0, "{}: the unsaved heartbeat is gone", d.name);
         for n in [Some(d.id), d.twin].into_iter().flatten() {
             sdo_write(&mut d.bus, n, 0x1017, 0, 2, 100);

@@ -72,9 +72,10 @@ mod checker_fails {
     use std::collections::VecDeque;
 
     use od_core::encoder::SensorFault;
+    use od_core::lss::Lss;
     use od_core::node::{BusEvent, Core, Output};
     use od_core::od::GroupMask;
-    use od_core::{CanId, Frame, Instant};
+    use od_core::{CanId, Frame, Instant, NmtState};
     use tests_host::encoder::upload_request;
     use tests_host::invariants::{Action, Kind, Rig, Subject, Wrap};
 
@@ -144,6 +145,12 @@ mod checker_fails {
         }
         fn core(&self) -> &Core {
             self.inner.core()
+        }
+        fn lss(&self) -> &Lss {
+            self.inner.lss()
+        }
+        fn nmt_state(&self) -> NmtState {
+            self.inner.nmt_state()
         }
     }
 

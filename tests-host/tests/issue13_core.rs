@@ -15,7 +15,7 @@ use tests_host::encoder::{sdo_read, sdo_write, Sensed, Sensor};
 /// LSS only) on a fresh bus, its sensor at a valid reading, after its boot-up message. The
 /// closure gets the device's name and the bus.
 fn each_encoder(node_id: u8, mut check: impl FnMut(&str, &mut Bus)) {
-    fn on_bus<E: Encoder + 'static>(node: Node<E>, raw: u32) -> Bus {
+    fn on_bus<E: Encoder + od_core::node::CanopenDevice + 'static>(node: Node<E>, raw: u32) -> Bus {
         let mut bus = Bus::new();
         bus.add(Sensed::new(node, Sensor::new(raw)));
         bus
@@ -307,6 +307,8 @@ impl od_core::node::Device for FastSgh10 {
         self.0.poll(core, now);
     }
 }
+
+impl od_core::node::CanopenDevice for FastSgh10 {}
 
 impl Encoder for FastSgh10 {
     fn on_sample(

@@ -215,6 +215,6 @@ proptest! {
         let expected = (below || above) as i64 | (above as i64) << 1 | (below as i64) << 2;
         prop_assert_eq!(value(node.core(), 0x6400, 1), expected);
         prop_assert_eq!(value(node.core(), 0x6503, 0) & 0x1000 != 0, below || above);
-        prop_assert_eq!(node.core().emcy.is_active(0xFF15), below || above);
+        prop_assert_eq!(node.core().errors.is_active(0xFF15), below || above);
     }
 }

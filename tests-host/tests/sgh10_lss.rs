@@ -8,7 +8,7 @@
 
 use od_core::devices::sgh10;
 use od_core::lss::LssState;
-use od_core::node::{Device, Output};
+use od_core::node::{CanopenDevice, Device, Output};
 use od_core::od::{Entry, GroupMask};
 use od_core::storage::{identity, ParamFlash, Region};
 use od_core::{Bitrate, Frame, NmtState, Node};
@@ -74,7 +74,7 @@ fn pending(bus: &mut Bus, n: usize) -> (u32, u32) {
 }
 
 fn lss_state(bus: &mut Bus, n: usize) -> LssState {
-    bus.station(n).core().lss.state()
+    bus.station(n).lss().unwrap().state()
 }
 
 #[test]
@@ -123,7 +123,7 @@ fn digest_6_2_sequence_selective_configure_store_inquire_activate() {
     let t0 = bus.now();
     lss_silent(&mut bus, [0x15, 0xE8, 0x03, 0, 0, 0, 0, 0]);
     lss_silent(&mut bus, [0x04, 0x00, 0, 0, 0, 0, 0, 0]);
-    assert_eq!(bus.station(0).core().nmt, NmtState::Initialising);
+    assert_eq!(bus.station(0).nmt().unwrap(), NmtState::Initialising);
     bus.advance(999);
     assert_eq!(bus.node_bitrate(0), Bitrate::K500);
     bus.advance(1);
@@ -150,7 +150,7 @@ fn configure_node_id_then_waiting_and_reset_communication_boots_on_705() {
     lss_silent(&mut bus, [0x04, 0x00, 0, 0, 0, 0, 0, 0]);
     // A configured node keeps its active node-ID until NMT resets it (manual §4.6.2.1).
     nmt(&mut bus, 0x01, 0x01);
-    assert_eq!(bus.station(0).core().nmt, NmtState::Operational);
+    assert_eq!(bus.station(0).nmt().unwrap(), NmtState::Operational);
     nmt(&mut bus, 0x82, 0x01);
     bus.expect(0x705, &[0x00]);
     bus.expect_silence();
@@ -236,7 +236,7 @@ fn activate_bit_timing_is_silent_until_the_boot_up_on_the_new_rate() {
     // included; nothing went out at the old rate either.
     bus.advance(1000);
     bus.expect_silence();
-    assert_eq!(bus.station(0).core().nmt, NmtState::PreOperational);
+    assert_eq!(bus.station(0).nmt().unwrap(), NmtState::PreOperational);
     assert!(!bus.log[mark..].iter().any(|s| s.from == Sender::Node(0)));
     // At the new rate the node answers again, still in LSS configuration (the master did not
     // switch it to waiting): activate bit timing does not change the LSS state (CiA 305).
@@ -279,7 +279,7 @@ fn activate_bit_timing_with_zero_delay_switches_at_once() {
     bus.expect_silence();
     let boot = bus.log.last().unwrap();
     assert_eq!((boot.at, boot.frame.id), (od_core::Instant::ZERO, od_core::CanId::Std(0x7E5)));
-    assert_eq!(bus.station(0).core().nmt, NmtState::PreOperational);
+    assert_eq!(bus.station(0).nmt().unwrap(), NmtState::PreOperational);
 }
 
 #[test]
@@ -381,7 +381,7 @@ fn services_in_the_wrong_lss_state_are_ignored() {
         lss_silent(&mut bus, data);
     }
     assert_eq!(pending(&mut bus, 0), (1, 5));
-    assert!(!bus.station(0).core().lss.switching());
+    assert!(!bus.station(0).lss().unwrap().switching());
     // LSS configuration: switch state selective is not available (Table 10), nor is Fastscan.
     lss_silent(&mut bus, [0x04, 0x01, 0, 0, 0, 0, 0, 0]);
     select(&mut bus, SERIAL);
@@ -406,7 +406,7 @@ fn lss_works_in_stopped() {
     // SGH10 A23: "Only NMT communication is enabled" in STOPPED; LSS is independent of NMT.
     let mut bus = bus_with_sgh10();
     nmt(&mut bus, 0x02, 0x01);
-    assert_eq!(bus.station(0).core().nmt, NmtState::Stopped);
+    assert_eq!(bus.station(0).nmt().unwrap(), NmtState::Stopped);
     lss_silent(&mut bus, [0x04, 0x01, 0, 0, 0, 0, 0, 0]);
     lss_answer(&mut bus, [0x5E, 0, 0, 0, 0, 0, 0, 0], [0x5E, 0x01, 0, 0, 0, 0, 0, 0]);
 }
@@ -524,7 +524,7 @@ fn unconfigured_node_is_silent_until_lss_gives_it_a_node_id() {
     bus.expect(0x70A, &[0x00]);
     bus.expect_silence();
     nmt(&mut bus, 0x01, 0x0A);
-    assert_eq!(bus.station(0).core().nmt, NmtState::Operational);
+    assert_eq!(bus.station(0).nmt().unwrap(), NmtState::Operational);
 }
 
 #[test]
@@ -649,6 +649,9 @@ impl Device for NoLss {
     fn table(&self) -> &'static [Entry] {
         sgh10::TABLE
     }
+}
+
+impl CanopenDevice for NoLss {
     fn has_lss(&self) -> bool {
         false
     }
@@ -666,7 +669,7 @@ fn a_device_without_lss_ignores_7e5() {
         lss_silent(&mut bus, data);
     }
     assert_eq!(fast_scan(&mut bus), None);
-    assert!(!bus.station(0).core().lss.enabled());
+    assert!(!bus.station(0).lss().unwrap().enabled());
 }
 
 #[test]
@@ -719,11 +722,11 @@ fn store_configuration_waits_for_the_shell_and_blocks_activate_meanwhile() {
     node.on_frame(&req([0x17, 0, 0, 0, 0, 0, 0, 0]), t);
     node.on_frame(&req([0x15, 0x01, 0x00, 0, 0, 0, 0, 0]), t);
     assert_eq!(node.next_output(), None);
-    assert!(!node.core().lss.switching());
+    assert!(!node.lss().switching());
     // The shell reports: one answer.
     node.store_done(Ok(()), t);
     assert_eq!(node.next_output(), Some(Output::Frame(Frame::std(0x7E4, &[0x17, 0, 0, 0, 0, 0, 0, 0]))));
     assert_eq!(node.next_output(), None);
     node.on_frame(&req([0x15, 0x01, 0x00, 0, 0, 0, 0, 0]), t);
-    assert!(node.core().lss.switching());
+    assert!(node.lss().switching());
 }

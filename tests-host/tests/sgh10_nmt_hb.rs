@@ -16,7 +16,7 @@ use od_core::emcy::{self, COMMUNICATION, MANUFACTURER};
 use od_core::node::Output;
 use od_core::od::{CoreHook, Hook};
 use od_core::storage::{Image, Loaded, Record};
-use od_core::{guarding, heartbeat, Abort, Bitrate, CanId, Frame, Instant, NmtState, Node};
+use od_core::{Abort, Bitrate, CanId, Frame, Instant, NmtState, Node};
 use tests_host::TableOnly;
 
 type Sgh10 = Node<TableOnly>;
@@ -106,25 +106,24 @@ impl Rig {
         }
     }
 
-    /// An SDO download of `value` (the entry's size) to node `n`: the checks and side effects
-    /// of the SDO server's `Dict::write`, and the abort code it would answer.
+    /// An SDO download of `value` (the entry's size) to node `n`: the dictionary access path
+    /// the SDO server's write takes, and the abort code it would answer.
     fn download(&mut self, n: usize, index: u16, sub: u8, value: u32) -> Result<(), Abort> {
         let now = self.now;
-        let core = self.nodes[n].split().1;
-        if !core.nmt.sdo_allowed() {
-            panic!("no SDO in {:?}", core.nmt);
+        let node = &mut self.nodes[n];
+        let nmt = node.nmt_state();
+        if !nmt.sdo_allowed() {
+            panic!("no SDO in {nmt:?}");
         }
+        let core = node.core();
         let pos = core.od.find(index, sub)?;
         let size = core.od.entry(pos).size();
-        let value = core.od.check_write(pos, &value.to_le_bytes()[..size])?;
         match core.od.entry(pos).hook {
-            Hook::Core(CoreHook::HeartbeatTime) => heartbeat::on_write(core, value, now)?,
-            Hook::Core(CoreHook::Guarding) => guarding::on_write(core, pos, value, now)?,
-            Hook::Core(h @ (CoreHook::EmcyCobId | CoreHook::ErrorHistory)) => emcy::on_write(core, h, pos, value, now)?,
-            Hook::None => {}
+            Hook::Core(CoreHook::HeartbeatTime | CoreHook::Guarding | CoreHook::EmcyCobId | CoreHook::ErrorHistory)
+            | Hook::None => {}
             other => panic!("download helper does not cover {other:?}"),
         }
-        core.od.set(pos, value);
+        node.write(index, sub, &value.to_le_bytes()[..size], now)?;
         Ok(())
     }
 
@@ -133,7 +132,7 @@ impl Rig {
         let core = self.nodes[n].core();
         let pos = core.od.find(index, sub)?;
         core.od.check_read(pos)?;
-        emcy::check_read(core, index, sub)?;
+        od_core::errors::check_read(&core.od, index, sub)?;
         Ok(core.od.get(pos))
     }
 
@@ -397,13 +396,13 @@ fn life_guarding_event_without_emcy_or_state_change() {
     rig.nmt(0x01, 0x01);
     // Not started before the first RTR.
     rig.advance(1000);
-    assert!(!guarding::life_guard_event(rig.nodes[0].core()));
+    assert!(!rig.nodes[0].guarding().life_guard_event());
     rig.rtr(0x701);
     rig.expect_at(0x701, &[0x05], 1000);
     rig.advance(299);
-    assert!(!guarding::life_guard_event(rig.nodes[0].core()));
+    assert!(!rig.nodes[0].guarding().life_guard_event());
     rig.advance(1);
-    assert!(guarding::life_guard_event(rig.nodes[0].core()), "life time 300 ms passed at 1300");
+    assert!(rig.nodes[0].guarding().life_guard_event(), "life time 300 ms passed at 1300");
     assert_eq!(rig.state(0), NmtState::Operational);
     assert_eq!(rig.upload(0, 0x1001, 0), Ok(0));
     rig.silence();
@@ -411,13 +410,13 @@ fn life_guarding_event_without_emcy_or_state_change() {
     rig.advance(700);
     rig.rtr(0x701);
     rig.expect_at(0x701, &[0x85], 2000);
-    assert!(!guarding::life_guard_event(rig.nodes[0].core()));
+    assert!(!rig.nodes[0].guarding().life_guard_event());
     for t in [2250, 2500, 2750] {
         rig.advance(250);
         rig.rtr(0x701);
         rig.expect_at(0x701, if t == 2500 { &[0x85] } else { &[0x05] }, t);
     }
-    assert!(!guarding::life_guard_event(rig.nodes[0].core()));
+    assert!(!rig.nodes[0].guarding().life_guard_event());
     rig.silence();
 }
 
@@ -434,7 +433,7 @@ fn heartbeat_switches_guarding_off() {
     rig.advance(500);
     rig.expect_at(0x701, &[0x7F], 500);
     rig.silence();
-    assert!(!guarding::life_guard_event(rig.nodes[0].core()));
+    assert!(!rig.nodes[0].guarding().life_guard_event());
     rig.download(0, 0x1017, 0, 0).unwrap();
     rig.rtr(0x701);
     rig.expect(0x701, &[0xFF]);

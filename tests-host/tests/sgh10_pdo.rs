@@ -3,9 +3,9 @@
 //! of 6.2) byte for byte and in virtual time, and receive PDOs on a small test dictionary laid
 //! out like the AP10T's (two RPDOs, static mapping, RTR on an RPDO answered by the device).
 //!
-//! Configuration goes through SDO frames as a master sends them. Until the SDO server lands,
-//! the test station answers expedited SDO requests itself, with the dictionary's checks and
-//! the same write hooks the node's SDO server calls (`Shim`).
+//! Configuration goes through SDO frames as a master sends them. The test station answers
+//! expedited SDO requests itself through the node's dictionary access path (`Shim`), so that
+//! it can poke measurements in between.
 
 use std::cell::RefCell;
 use std::collections::VecDeque;
@@ -13,9 +13,10 @@ use std::rc::Rc;
 
 use od_core::abort::Abort;
 use od_core::devices::sgh10;
-use od_core::node::{Core, Device, Node, Output};
+use od_core::node::{BusEvent, CanopenDevice, Context, Core, Device, Link, Node, Output, RxIds};
 use od_core::od::{Access::*, CoreHook::*, DataType::*, Entry, Hook};
-use od_core::{pdo, Bitrate, CanId, Frame, Instant, RxId};
+use od_core::pdo::RtrReply;
+use od_core::{Bitrate, CanId, Frame, Instant, RxId};
 use tests_host::bus::{Bus, Station};
 
 // ---------------------------------------------------------------------------------------------
@@ -27,13 +28,13 @@ type Pokes = Rc<RefCell<VecDeque<(u16, u8, u32)>>>;
 
 /// A node on the bus that also answers expedited SDO requests (download 23h/27h/2Bh/2Fh,
 /// upload 40h) through the dictionary checks and the write hooks, until the SDO server lands.
-struct Shim<D: Device> {
+struct Shim<D: CanopenDevice> {
     node: Node<D>,
     pokes: Pokes,
     sdo: VecDeque<Frame>,
 }
 
-impl<D: Device> Shim<D> {
+impl<D: CanopenDevice> Shim<D> {
     fn new(node: Node<D>) -> (Shim<D>, Pokes) {
         let pokes = Pokes::default();
         (Shim { node, pokes: pokes.clone(), sdo: VecDeque::new() }, pokes)
@@ -47,18 +48,18 @@ impl<D: Device> Shim<D> {
     }
 
     fn sdo(&mut self, req: &[u8], now: Instant) -> [u8; 8] {
-        let (device, core) = self.node.split();
         let index = u16::from_le_bytes([req[1], req[2]]);
         let sub = req[3];
         let mut answer = [0, req[1], req[2], sub, 0, 0, 0, 0];
         let result = match req[0] {
             0x23 | 0x27 | 0x2B | 0x2F => {
                 let n = 4 - ((req[0] >> 2) & 3) as usize;
-                write(device, core, index, sub, &req[4..4 + n], now).map(|()| {
+                self.node.write(index, sub, &req[4..4 + n], now).map(|_| {
                     answer[0] = 0x60;
                 })
             }
-            0x40 => core.od.find(index, sub).and_then(|pos| {
+            0x40 => self.node.core().od.find(index, sub).and_then(|pos| {
+                let core = self.node.core();
                 core.od.check_read(pos)?;
                 let n = core.od.encode(pos, &mut answer[4..]);
                 answer[0] = 0x43 | (((4 - n) as u8) << 2);
@@ -74,34 +75,12 @@ impl<D: Device> Shim<D> {
     }
 }
 
-/// What the node's SDO server does with a download: checks, hook, value.
-fn write<D: Device>(
-    device: &mut D,
-    core: &mut Core,
-    index: u16,
-    sub: u8,
-    data: &[u8],
-    now: Instant,
-) -> Result<(), Abort> {
-    let pos = core.od.find(index, sub)?;
-    let value = core.od.check_write(pos, data)?;
-    match core.od.entry(pos).hook {
-        Hook::Core(h @ (SyncCobId | PdoCobId | PdoTransmissionType | PdoEventTimer | PdoMapping)) => {
-            pdo::on_write(core, h, pos, value, now)?
-        }
-        Hook::Device(_) => device.on_write(core, pos, value, now)?,
-        _ => {}
-    }
-    core.od.set(pos, value);
-    Ok(())
-}
-
-impl<D: Device> Station for Shim<D> {
+impl<D: CanopenDevice> od_core::Station for Shim<D> {
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
         self.apply_pokes();
         let core = self.node.core();
         let sdo_rx = CanId::Std(0x600 + core.node_id as u16);
-        if frame.id == sdo_rx && !frame.rtr && frame.len == 8 && core.nmt.sdo_allowed() {
+        if frame.id == sdo_rx && !frame.rtr && frame.len == 8 && self.node.nmt_state().sdo_allowed() {
             let answer = self.sdo(frame.payload(), now);
             self.sdo.push_back(Frame::std(0x580 + self.node.core().node_id as u16, &answer));
             return;
@@ -118,20 +97,31 @@ impl<D: Device> Station for Shim<D> {
     fn next_output(&mut self) -> Option<Output> {
         self.sdo.pop_front().map(Output::Frame).or_else(|| self.node.next_output())
     }
-    fn store_done(&mut self, ok: bool, now: Instant) {
-        self.node.store_done(if ok { Ok(()) } else { Err(()) }, now)
+    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.node.store_done(result, now)
     }
-    fn core(&self) -> &Core {
-        self.node.core()
+    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.node.on_bus_event(event, now)
+    }
+    fn rx_ids(&self) -> RxIds {
+        self.node.rx_ids()
+    }
+    fn rx_ids_generation(&self) -> u32 {
+        self.node.rx_ids_generation()
+    }
+    fn context(&self) -> &Context {
+        self.node.context()
     }
 }
+
+impl<D: CanopenDevice> Station for Shim<D> {}
 
 // ---------------------------------------------------------------------------------------------
 // SGH10
 
 /// The SGH10 dictionary with the manual's one PDO-related device rule: 6200h and 1800h.05 are
-/// one value ("permanently internally linked"), kept together through `pdo::set_event_timer`
-/// whichever of the two carries the device hook.
+/// one value ("permanently internally linked"): a link to TPDO1's event timer, whichever of
+/// the two carries the device hook, and the device keeps the two entries equal.
 struct Sgh10Pdo;
 
 impl Device for Sgh10Pdo {
@@ -139,15 +129,24 @@ impl Device for Sgh10Pdo {
         sgh10::TABLE
     }
 
-    fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+    fn link(&self, e: &Entry) -> Option<Link> {
+        matches!((e.index, e.sub), (0x6200, 0) | (0x1800, 5)).then_some(Link {
+            index: 0x1800,
+            sub: 5,
+            hook: PdoEventTimer,
+        })
+    }
+
+    fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, _now: Instant) -> Result<(), Abort> {
         let e = core.od.entry(pos);
         if matches!((e.index, e.sub), (0x6200, 0) | (0x1800, 5)) {
-            pdo::set_event_timer(core, 0, value as u16, now)?;
             core.od.set_value(0x6200, 0, value);
         }
         Ok(())
     }
 }
+
+impl CanopenDevice for Sgh10Pdo {}
 
 /// Position 510 (0.1 mm) and velocity 0, as in the digest's TPDO vectors.
 const POS_510: [u8; 6] = [0xFE, 0x01, 0x00, 0x00, 0x00, 0x00];
@@ -471,14 +470,12 @@ fn hardware_filter_ids() {
     let want = [d(0x7E5), d(0x000), d(0x601), r(0x701), d(0x080), r(0x181), r(0x281)];
     assert_eq!(&ids[..], &want[..]);
     let g = node.rx_ids_generation();
-    let (device, core) = node.split();
-    write(device, core, 0x1005, 0, &0x85u32.to_le_bytes(), Instant::ZERO).unwrap();
+    node.write(0x1005, 0, &0x85u32.to_le_bytes(), Instant::ZERO).unwrap();
     assert_ne!(node.rx_ids_generation(), g);
     assert!(node.rx_ids().contains(&RxId::data(CanId::Std(0x85))));
     // A new node-ID (5F0Ah.01, then reset communication) changes them too.
     let g = node.rx_ids_generation();
-    let (device, core) = node.split();
-    write(device, core, 0x5F0A, 1, &[5], Instant::ZERO).unwrap();
+    node.write(0x5F0A, 1, &[5], Instant::ZERO).unwrap();
     node.on_frame(&Frame::std(0x000, &[0x82, 0x01]), Instant::ZERO);
     assert_ne!(node.rx_ids_generation(), g);
     node.poll(Instant::ZERO);
@@ -555,17 +552,19 @@ impl Device for Display {
     fn table(&self) -> &'static [Entry] {
         RX
     }
+}
 
+impl CanopenDevice for Display {
     fn on_rpdo(&mut self, core: &mut Core, n: u8, _now: Instant) {
         let cw = core.od.value(0x5F0C, 0).unwrap();
         core.od.set_value(0x5F19, 0, cw & 0x0004);
         self.log.borrow_mut().push(format!("rpdo{n}"));
     }
 
-    fn on_rpdo_rtr(&mut self, core: &mut Core, n: u8, _now: Instant) {
+    fn on_rpdo_rtr(&mut self, core: &mut Core, n: u8, reply: &RtrReply, _now: Instant) {
         let sw = core.od.value(0x5F19, 0).unwrap();
         core.od.set_value(0x5F19, 0, sw | 0x0200);
-        pdo::reply(core, n, n);
+        reply.send(core, n);
         core.od.set_value(0x5F19, 0, sw);
         self.log.borrow_mut().push(format!("rtr{n}"));
     }

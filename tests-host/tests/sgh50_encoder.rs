@@ -147,7 +147,7 @@ proptest! {
     fn readings_beyond_the_range_are_invalid(um in MAX_UM + 1..) {
         let (node, _) = device_at(um);
         prop_assert_eq!(value(node.core(), 0x6503, 0), 1);
-        prop_assert!(node.core().emcy.is_active(0xFF05));
+        prop_assert!(node.core().errors.is_active(0xFF05));
     }
 
     #[test]

@@ -39,7 +39,7 @@ fn lss(bus: &mut Bus, data: [u8; 8]) {
 }
 
 fn state(bus: &mut Bus, n: usize) -> NmtState {
-    bus.station(n).core().nmt
+    bus.station(n).nmt().unwrap()
 }
 
 #[test]
@@ -124,8 +124,8 @@ fn lss_selects_encoder_2_by_serial_and_readdresses_it_alone() {
     let selected = bus.expect(0x7E4, &[0x44, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]);
     assert_eq!(selected.from, Sender::Node(1));
     bus.expect_silence();
-    assert_eq!(bus.station(0).core().lss.state(), LssState::Waiting);
-    assert_eq!(bus.station(1).core().lss.state(), LssState::Configuration);
+    assert_eq!(bus.station(0).lss().unwrap().state(), LssState::Waiting);
+    assert_eq!(bus.station(1).lss().unwrap().state(), LssState::Configuration);
     // Configure node-ID 5 and store: only encoder 2 answers.
     lss(&mut bus, [0x11, 0x05, 0, 0, 0, 0, 0, 0]);
     assert_eq!(bus.expect(0x7E4, &[0x11, 0, 0, 0, 0, 0, 0, 0]).from, Sender::Node(1));

@@ -10,8 +10,7 @@ use std::collections::VecDeque;
 use std::rc::Rc;
 
 use od_core::led::{LedState, Leds};
-use od_core::node::{BusEvent, Core, Output};
-use od_core::od::{CoreHook, Hook};
+use od_core::node::{BusEvent, Context, Output, RxIds};
 use od_core::{Abort, Bitrate, Frame, Instant, NmtState, Node};
 use proptest::prelude::*;
 use tests_host::bus::{Bus, Station};
@@ -44,7 +43,7 @@ struct Wv {
     ctl: Rc<RefCell<Ctl>>,
 }
 
-impl Station for Wv {
+impl od_core::Station for Wv {
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
         self.inner.on_frame(frame, now);
     }
@@ -57,8 +56,7 @@ impl Station for Wv {
         if self.inner.next_deadline().is_some_and(|t| t <= now) {
             self.inner.poll(now);
         }
-        let (device, core) = self.inner.node().split();
-        ctl.leds = Some(device.leds(core));
+        ctl.leds = Some(self.inner.node().device().leds());
         ctl.refresh = false;
     }
     fn next_deadline(&self) -> Option<Instant> {
@@ -72,29 +70,31 @@ impl Station for Wv {
     fn next_output(&mut self) -> Option<Output> {
         self.inner.next_output()
     }
-    fn store_done(&mut self, ok: bool, now: Instant) {
-        self.inner.store_done(ok, now);
+    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.inner.store_done(result, now);
     }
-    fn core(&self) -> &Core {
-        Station::core(&self.inner)
+    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.inner.on_bus_event(event, now);
+    }
+    fn rx_ids(&self) -> RxIds {
+        self.inner.rx_ids()
+    }
+    fn rx_ids_generation(&self) -> u32 {
+        self.inner.rx_ids_generation()
+    }
+    fn context(&self) -> &Context {
+        self.inner.context()
     }
 }
 
-/// A write as the SDO server makes it, for the device hooks and the guarding core hook.
-fn write_entry(node: &mut Node<Wv5800m>, index: u16, sub: u8, v: u32, now: Instant) -> Result<(), Abort> {
-    let core = node.split().1;
-    let pos = core.od.find(index, sub)?;
-    let hook = core.od.entry(pos).hook;
-    if let Hook::Core(h @ (CoreHook::Guarding | CoreHook::HeartbeatTime)) = hook {
-        let size = core.od.entry(pos).dtype.size();
-        let v = core.od.check_write(pos, &v.to_le_bytes()[..size])?;
-        match h {
-            CoreHook::Guarding => od_core::guarding::on_write(core, pos, v, now)?,
-            _ => od_core::heartbeat::on_write(core, v, now)?,
-        }
-        core.od.set(pos, v);
-        return Ok(());
+impl Station for Wv {
+    fn nmt(&self) -> Option<NmtState> {
+        self.inner.nmt()
     }
+}
+
+/// A write as the SDO server makes it: the dictionary access path.
+fn write_entry(node: &mut Node<Wv5800m>, index: u16, sub: u8, v: u32, now: Instant) -> Result<(), Abort> {
     direct_write(node, index, sub, v, now)
 }
 
@@ -348,7 +348,7 @@ fn can_errors_emcy_and_red_led() {
     bus.send(Frame::std(0x000, &[0x02, 0x01]));
     bus.advance(0);
     assert_eq!(leds(&mut bus).green, LedState::SingleFlash);
-    assert_eq!(bus.station(0).core().nmt, NmtState::Stopped);
+    assert_eq!(bus.station(0).nmt().unwrap(), NmtState::Stopped);
 }
 
 #[test]

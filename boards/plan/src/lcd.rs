@@ -141,6 +141,32 @@ pub struct Screen {
     pub rows: [Row; ROWS],
 }
 
+/// A character turned by 180°: the segments swap top and bottom, left and right (a<->d,
+/// b<->e, c<->f; g stays).
+pub const fn upside_down(seg: u8) -> u8 {
+    const fn swap(s: u8, x: u8, y: u8) -> u8 {
+        (if s & x != 0 { y } else { 0 }) | (if s & y != 0 { x } else { 0 })
+    }
+    swap(seg, A, D) | swap(seg, B, E) | swap(seg, C, F) | (seg & (G | DP))
+}
+
+/// What the board's LCD shows of the AP10T's screen (`od_core::devices::ap10t::Screen`, the
+/// rows as the reader reads them): each cell as its glyph, upside down on a display mounted
+/// turned by 180° (`Screen::physical`), its decimal point lit. A character the 7-segment
+/// digits cannot draw (K, M, W, X ...; the screen model keeps them, D-AP-5) is shown as
+/// segment d alone, a low bar that says "something is here".
+pub fn from_screen(screen: &od_core::devices::ap10t::Screen) -> Screen {
+    let mut out = Screen::default();
+    for (row, cells) in out.rows.iter_mut().zip(screen.physical()) {
+        for (seg, cell) in row.iter_mut().zip(cells) {
+            let g = glyph(cell.ch).unwrap_or(D);
+            let g = if cell.upside_down { upside_down(g) } else { g };
+            *seg = g | if cell.dp { DP } else { 0 };
+        }
+    }
+    out
+}
+
 /// RAM addresses of the HT1621.
 pub const RAM_NIBBLES: usize = 32;
 
@@ -351,5 +377,26 @@ mod tests {
         // Bit 136 is address 31's D3, then the pad: address 0 again (1,0,0,1) and three bits of
         // address 1 (0,0,0).
         assert_eq!(f[17], 0b0100_1000);
+    }
+
+    #[test]
+    fn the_ap10t_screen_on_the_segments() {
+        use od_core::devices::ap10t::screen::{Row as TextRow, Screen as TextScreen};
+        let mut screen = TextScreen { rows: [TextRow::right("123.45"), TextRow::left("AP10TX")], rotated: false };
+        let lcd = from_screen(&screen);
+        assert_eq!(lcd.rows[0], render("123.45").unwrap());
+        // 'X' has no glyph: a low bar.
+        let mut want = render("AP10T ").unwrap();
+        want[5] = D;
+        assert_eq!(lcd.rows[1], want);
+        // Turned by 180°: the lower row upside down and reversed on top.
+        screen.rows[1] = TextRow::right("7.");
+        screen.rotated = true;
+        let lcd = from_screen(&screen);
+        assert_eq!(lcd.rows[0][0], upside_down(glyph(b'7').unwrap()));
+        assert_eq!(lcd.rows[0][1..], [0; 5]);
+        assert_eq!(upside_down(glyph(b'7').unwrap()), D | E | F);
+        assert_eq!(upside_down(upside_down(0xFF)), 0xFF);
+        assert_eq!(upside_down(glyph(b'8').unwrap()), glyph(b'8').unwrap());
     }
 }

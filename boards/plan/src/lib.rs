@@ -2,6 +2,7 @@
 //! computed without them, so that host tests cover it.
 //!
 //! - [`timing`]: bxCAN bit timing for every CANopen bit rate from the APB1 clock;
+//! - [`alarm`]: wake-up times the TIM2 time driver can program (and Renode's timer model fire);
 //! - [`filters`]: the node's receive identifiers packed into bxCAN filter banks;
 //! - [`errors`]: the controller's error register turned into [`od_core::node::BusEvent`]s;
 //! - [`sensor`]: the SPI angle sensor's frame and the raw counts the devices take;
@@ -16,6 +17,7 @@
 #![cfg_attr(not(test), no_std)]
 #![deny(missing_docs)]
 
+pub mod alarm;
 pub mod errors;
 pub mod filters;
 pub mod keys;

@@ -5,7 +5,7 @@
 use board_plan::filters::{accepted, banks, Bank, BANKS};
 use od_core::devices::wv5800m::{Model, Turns, Variant, Wv5800m};
 use od_core::devices::{sgh10, sgh50};
-use od_core::node::{Device, Node};
+use od_core::node::{CanopenDevice, Node};
 use od_core::{Bitrate, CanId, Frame, Instant, NmtState, RxId};
 
 fn d(id: u16) -> RxId {
@@ -21,7 +21,7 @@ fn sorted(mut ids: Vec<RxId>) -> Vec<RxId> {
     ids
 }
 
-fn filters_of<D: Device>(node: &Node<D>) -> (Vec<RxId>, Vec<Bank>) {
+fn filters_of<D: CanopenDevice>(node: &Node<D>) -> (Vec<RxId>, Vec<Bank>) {
     let ids = node.rx_ids();
     let b = banks(&ids, BANKS);
     (sorted(ids.to_vec()), b.to_vec())
@@ -39,7 +39,7 @@ fn check_exact(ids: &[RxId], b: &[Bank]) {
 }
 
 /// The node after its boot-up (the PDO layer reads its configuration then), its outputs taken.
-fn booted<D: Device>(mut node: Node<D>) -> Node<D> {
+fn booted<D: CanopenDevice>(mut node: Node<D>) -> Node<D> {
     node.poll(Instant::ZERO);
     while node.next_output().is_some() {}
     node
@@ -133,7 +133,7 @@ fn unconfigured_node_hears_lss_only() {
 
 /// Writes `value` to (index, sub) as a master does: an SDO expedited download of 4 bytes,
 /// answered by the download response.
-fn sdo_write<D: Device>(node: &mut Node<D>, index: u16, sub: u8, value: u32) {
+fn sdo_write<D: CanopenDevice>(node: &mut Node<D>, index: u16, sub: u8, value: u32) {
     let id = node.core().node_id as u16;
     let [i0, i1] = index.to_le_bytes();
     let [v0, v1, v2, v3] = value.to_le_bytes();
@@ -143,7 +143,7 @@ fn sdo_write<D: Device>(node: &mut Node<D>, index: u16, sub: u8, value: u32) {
 }
 
 /// What a frame may change in a node, as far as the shell can see it.
-fn snapshot<D: Device>(node: &mut Node<D>) -> (NmtState, Vec<u32>, Option<Instant>, u32) {
+fn snapshot<D: CanopenDevice>(node: &mut Node<D>) -> (NmtState, Vec<u32>, Option<Instant>, u32) {
     let od = &node.core().od;
     let values = (0..node.device().table().len()).map(|pos| od.get(pos)).collect();
     (node.nmt_state(), values, node.next_deadline(), node.rx_ids_generation())
@@ -152,7 +152,7 @@ fn snapshot<D: Device>(node: &mut Node<D>) -> (NmtState, Vec<u32>, Option<Instan
 /// Feeds the node every frame the filters reject (every 11-bit identifier as data with 0 and 8
 /// bytes and as remote, and a few 29-bit ones) and checks that none has any effect: no output,
 /// the same NMT state, dictionary, deadline and receive list.
-fn rejected_frames_are_ignored<D: Device>(node: &mut Node<D>, label: &str) {
+fn rejected_frames_are_ignored<D: CanopenDevice>(node: &mut Node<D>, label: &str) {
     let b = banks(&node.rx_ids(), BANKS);
     let mut frames = Vec::new();
     for id in 0..=0x7FFu16 {
@@ -176,7 +176,7 @@ fn rejected_frames_are_ignored<D: Device>(node: &mut Node<D>, label: &str) {
     assert!(rejected > 3 * 0x7F0, "{label}: the sweep rejected {rejected} frames");
 }
 
-fn started<D: Device>(node: &mut Node<D>, state: u8) {
+fn started<D: CanopenDevice>(node: &mut Node<D>, state: u8) {
     let id = node.core().node_id;
     node.on_frame(&Frame::std(0, &[state, id]), Instant::ZERO);
     while node.next_output().is_some() {}

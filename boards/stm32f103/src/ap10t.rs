@@ -2,10 +2,12 @@
 //! for the two rows of six 7-segment digits, two bi-colour LEDs and four keys. No straps, no
 //! sensor.
 //!
-//! The device (to come in the core) decides what the rows show and what a key does; the board
-//! shows a [`Screen`] ([`Lcd::show`]), reports debounced key changes ([`Keys::scan`]) and lights
-//! the LEDs ([`Leds::set`]). The protocol details, font and debouncing are in `board_plan::lcd`
-//! and `board_plan::keys`, host-tested.
+//! The device (`od_core::devices::ap10t::Ap10t`) decides what the rows show and what a key
+//! does; the board shows a [`Screen`] ([`Lcd::show`]), reports debounced key changes
+//! ([`Keys::scan`]) and lights the LEDs ([`Leds::set`]); [`Panel`] is the device's [`Io`]. The
+//! protocol details, font and debouncing are in `board_plan::lcd` and `board_plan::keys`,
+//! host-tested. The backlight has no switchable supply on this board: 5F12h sub 7-9 act on
+//! the screen model only.
 
 use board_plan::keys::{Change, Debouncer};
 use board_plan::lcd::{frame, Screen, INIT};
@@ -16,7 +18,12 @@ use embassy_stm32::spi::{self, Spi, MODE_0};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::Peri;
 
+use od_core::devices::ap10t::{Ap10t, Key, View};
+use od_core::node::Core;
+use od_core::Instant;
+
 use crate::mcu::{self, Mcu};
+use crate::Io;
 
 /// The HT1621's write clock: APB1 36 MHz / 256 = 140.6 kHz, under the driver's 150 kHz at 3 V.
 /// A whole display (18 bytes) takes 1 ms.
@@ -113,16 +120,66 @@ impl Leds {
     }
 }
 
-/// The AP10T board.
-pub struct Board {
-    /// The shared peripherals.
-    pub mcu: Mcu,
+/// How often the keys are scanned, in microseconds (the debouncer counts in these steps).
+pub const KEY_SCAN_US: u32 = 1_000;
+
+/// The front panel as the device's [`Io`]: key edges to the device, its view to the LCD and the
+/// LEDs (rewritten only when the view changed).
+pub struct Panel {
     /// The LCD driver.
     pub lcd: Lcd,
     /// The keys.
     pub keys: Keys,
     /// The LEDs.
     pub leds: Leds,
+    shown: Option<View>,
+}
+
+impl Panel {
+    /// The panel, the LCD started (a driver that does not answer is retried at every show).
+    pub fn new(mut lcd: Lcd, keys: Keys, leds: Leds) -> Panel {
+        let _ = lcd.init();
+        Panel { lcd, keys, leds, shown: None }
+    }
+}
+
+impl Io<Ap10t> for Panel {
+    fn period_us(&self, _device: &Ap10t) -> u32 {
+        KEY_SCAN_US
+    }
+
+    fn sample(&mut self, device: &mut Ap10t, core: &mut Core, now: Instant) {
+        let Some(change) = self.keys.scan(now) else { return };
+        for (k, key) in Key::ALL.into_iter().enumerate() {
+            if change.released & (1 << k) != 0 {
+                device.release(core, key, now);
+            }
+            if change.pressed & (1 << k) != 0 {
+                device.press(core, key, now);
+            }
+        }
+    }
+
+    fn show(&mut self, device: &Ap10t, _core: &Core, now: Instant) -> Option<Instant> {
+        let view = device.view(now);
+        if self.shown != Some(view) {
+            let screen = board_plan::lcd::from_screen(&view.screen);
+            if self.lcd.show(&screen).is_ok() {
+                self.shown = Some(view);
+            }
+            self.leds.set(false, view.leds.left.green, view.leds.left.red);
+            self.leds.set(true, view.leds.right.green, view.leds.right.red);
+        }
+        device.next_change(now)
+    }
+}
+
+/// The AP10T board.
+pub struct Board {
+    /// The shared peripherals.
+    pub mcu: Mcu,
+    /// LCD, keys and LEDs.
+    pub io: Panel,
 }
 
 /// Initialises the MCU (clocks) and takes the board's peripherals.
@@ -130,8 +187,10 @@ pub fn take() -> Board {
     let p = embassy_stm32::init(mcu::config());
     Board {
         mcu: Mcu::new(p.CAN, p.PA11, p.PA12, p.PB5, p.FLASH, p.IWDG),
-        lcd: Lcd::new(p.SPI2, p.PB12, p.PB13, p.PB15),
-        keys: Keys::new([p.PA0.into(), p.PA1.into(), p.PA2.into(), p.PA3.into()]),
-        leds: Leds::new([p.PB0.into(), p.PB1.into(), p.PB10.into(), p.PB11.into()]),
+        io: Panel::new(
+            Lcd::new(p.SPI2, p.PB12, p.PB13, p.PB15),
+            Keys::new([p.PA0.into(), p.PA1.into(), p.PA2.into(), p.PA3.into()]),
+            Leds::new([p.PB0.into(), p.PB1.into(), p.PB10.into(), p.PB11.into()]),
+        ),
     }
 }

@@ -37,8 +37,8 @@ impl<S: PositionSensor> Io<Wv5800m> for RotaryIo<S> {
         device.on_sample(core, raw, now);
     }
 
-    fn show(&mut self, device: &Wv5800m, core: &Core, now: Instant) -> Option<Instant> {
-        let leds = device.leds(core);
+    fn show(&mut self, device: &Wv5800m, _: &Core, now: Instant) -> Option<Instant> {
+        let leds = device.leds();
         self.leds.set(leds.lit(now));
         leds.next_change(now)
     }

@@ -4,16 +4,51 @@
 //! these boards, one per channel, each a J1939 node of its own; the turns, like the WV5800M's,
 //! are the firmware image's.
 //!
-//! The J1939 device is not in the core yet; this module is the board it will run on: its
-//! sensor gives the same raw multiturn count as the WV5800M's ([`Board::raw`]).
+//! The J1939 device is `od_core::devices::wv58mr::Wv58mr` on a `J1939Node`; [`ChannelIo`]
+//! feeds it the same raw multiturn count as the WV5800M's sensor gives and shows its LEDs.
 
 use board_plan::sensor::multiturn_raw;
 use od_core::devices::wv5800m::Turns;
-use od_core::encoder::SensorFault;
+use od_core::devices::wv58mr::Wv58mr;
+use od_core::encoder::Encoder;
+use od_core::node::Core;
+use od_core::Instant;
 
 use crate::leds::StatusLeds;
 use crate::mcu::{self, Mcu};
 use crate::sensor::{AngleSensor, PositionSensor};
+use crate::Io;
+
+/// One channel's inputs and outputs: the shaft sensor and the three LEDs.
+pub struct ChannelIo<S = AngleSensor> {
+    sensor: S,
+    leds: StatusLeds,
+    turn_bits: u32,
+}
+
+impl<S: PositionSensor> ChannelIo<S> {
+    /// The sensor counting `revolutions` turns (a power of two, 1 = singleturn) and the LEDs.
+    pub fn new(sensor: S, leds: StatusLeds, revolutions: u32) -> ChannelIo<S> {
+        ChannelIo { sensor, leds, turn_bits: revolutions.trailing_zeros() }
+    }
+}
+
+impl<S: PositionSensor> Io<Wv58mr> for ChannelIo<S> {
+    fn period_us(&self, device: &Wv58mr) -> u32 {
+        device.sample_period_us()
+    }
+
+    fn sample(&mut self, device: &mut Wv58mr, core: &mut Core, now: Instant) {
+        let raw = self.sensor.read().map(|r| multiturn_raw(r, self.turn_bits));
+        device.on_sample(core, raw, now);
+    }
+
+    fn show(&mut self, device: &Wv58mr, _: &Core, now: Instant) -> Option<Instant> {
+        let leds = device.leds();
+        self.leds.set(leds.lit(now));
+        leds.next_change(now)
+    }
+}
 
 /// The WV58MR board (one channel).
 pub struct Board {
@@ -25,18 +60,8 @@ pub struct Board {
     pub redundant: bool,
     /// Its second channel?
     pub second_channel: bool,
-    /// The shaft sensor.
-    pub sensor: AngleSensor,
-    /// The status LEDs.
-    pub leds: StatusLeds,
-}
-
-impl Board {
-    /// One sensor reading as the raw count (16384 steps a turn, the turns modulo the range).
-    pub fn raw(&mut self) -> Result<u32, SensorFault> {
-        let bits = self.turns.revolutions().trailing_zeros();
-        self.sensor.read().map(|r| multiturn_raw(r, bits))
-    }
+    /// Sensor and LEDs.
+    pub io: ChannelIo,
 }
 
 /// Initialises the MCU (clocks) and takes the board's peripherals for an encoder of `turns`.
@@ -49,7 +74,10 @@ pub fn take(turns: Turns) -> Board {
         turns,
         redundant,
         second_channel,
-        sensor: AngleSensor::new(p.SPI1, p.PA4, p.PA5, p.PA6, p.PA7),
-        leds: StatusLeds::new(p.PB0, p.PB1, p.PB10),
+        io: ChannelIo::new(
+            AngleSensor::new(p.SPI1, p.PA4, p.PA5, p.PA6, p.PA7),
+            StatusLeds::new(p.PB0, p.PB1, p.PB10),
+            turns.revolutions(),
+        ),
     }
 }

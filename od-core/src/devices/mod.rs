@@ -5,3 +5,4 @@ pub mod comm;
 pub mod sgh10;
 pub mod sgh50;
 pub mod wv5800m;
+pub mod wv58mr;

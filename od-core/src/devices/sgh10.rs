@@ -7,10 +7,11 @@
 //! measuring range and its EMCY FF12h "speed error".
 
 use crate::abort::Abort;
+use crate::context::{BusEvent, Context as Core, ResetKind};
+use crate::device::{CanopenDevice, Device, Link};
 use crate::devices::comm::{self, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
 use crate::encoder::linear::{Linear, LinearSpec};
-use crate::encoder::{Encoder, SensorFault};
-use crate::node::{BusEvent, Core, Device, ResetKind};
+use crate::encoder::{Encoder, SensorFault, CYCLE_TIMER_LINK};
 use crate::od::{Access::*, DataType::*, Entry, Group, Hook};
 use crate::time::Instant;
 
@@ -163,6 +164,10 @@ impl Device for Sgh10 {
         TABLE
     }
 
+    fn link(&self, e: &Entry) -> Option<Link> {
+        (e.hook == Hook::Device(hooks::CYCLE_TIMER)).then_some(CYCLE_TIMER_LINK)
+    }
+
     fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
         self.linear.on_write(core, pos, value, now)
     }
@@ -179,6 +184,8 @@ impl Device for Sgh10 {
         self.linear.on_bus_event(core, event, now);
     }
 }
+
+impl CanopenDevice for Sgh10 {}
 
 impl Encoder for Sgh10 {
     fn on_sample(&mut self, core: &mut Core, raw: Result<u32, SensorFault>, now: Instant) {

@@ -12,10 +12,11 @@
 //! measuring range; the SGH50 manual lists no speed EMCY.
 
 use crate::abort::Abort;
+use crate::context::{BusEvent, Context as Core, ResetKind};
+use crate::device::{CanopenDevice, Device, Link};
 use crate::devices::comm::{self, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
 use crate::encoder::linear::{Linear, LinearSpec};
-use crate::encoder::{Encoder, SensorFault};
-use crate::node::{BusEvent, Core, Device, ResetKind};
+use crate::encoder::{Encoder, SensorFault, CYCLE_TIMER_LINK};
 use crate::od::{Access::*, DataType::*, Entry, Group, Hook};
 use crate::time::Instant;
 
@@ -216,6 +217,10 @@ impl Device for Sgh50 {
         }
     }
 
+    fn link(&self, e: &Entry) -> Option<Link> {
+        (e.hook == Hook::Device(hooks::CYCLE_TIMER)).then_some(CYCLE_TIMER_LINK)
+    }
+
     fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
         self.linear.on_write(core, pos, value, now)
     }
@@ -232,6 +237,8 @@ impl Device for Sgh50 {
         self.linear.on_bus_event(core, event, now);
     }
 }
+
+impl CanopenDevice for Sgh50 {}
 
 impl Encoder for Sgh50 {
     fn on_sample(&mut self, core: &mut Core, raw: Result<u32, SensorFault>, now: Instant) {

@@ -13,6 +13,8 @@
 //! `docs/decisions.md`, "WV5800M".
 
 use crate::abort::Abort;
+use crate::context::{BusEvent, Context as Core, ResetKind};
+use crate::device::{CanopenDevice, CanopenStatus, Device, Link};
 use crate::devices::comm::{self, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
 use crate::encoder::linear::{CanDiagnosis, EMCY_AREA_1, EMCY_AREA_2, EMCY_BUS_OFF, EMCY_PASSIVE, EMCY_POSITION};
 use crate::encoder::rotary::{
@@ -21,13 +23,10 @@ use crate::encoder::rotary::{
 };
 use crate::encoder::{
     alarms, operating_status, warnings, Condition, EmcyConditions, Encoder, SensorFault, SpeedEstimator, WorkAreas,
+    CYCLE_TIMER_LINK,
 };
-use crate::guarding;
 use crate::led::{LedInputs, Leds, WARNING_LIMIT};
-use crate::lss::LssState;
-use crate::node::{BusEvent, Core, Device, ResetKind};
-use crate::od::{Access::*, CoreHook, DataType::*, Entry, Group, Hook, Od};
-use crate::pdo;
+use crate::od::{Access::*, DataType::*, Entry, Group, Hook, Od};
 use crate::time::Instant;
 
 /// Device-specific write hooks of the WV5800M (`Hook::Device(n)`).
@@ -303,6 +302,8 @@ pub struct Wv5800m {
     warning: bool,
     can: CanDiagnosis,
     started: bool,
+    /// The node's status, for the LEDs.
+    status: CanopenStatus,
 }
 
 impl Wv5800m {
@@ -327,6 +328,7 @@ impl Wv5800m {
             warning: false,
             can: CanDiagnosis::default(),
             started: false,
+            status: CanopenStatus::default(),
         }
     }
 
@@ -345,14 +347,42 @@ impl Wv5800m {
         self.over_speed
     }
 
-    /// What the three LEDs show now ([`Leds::lit`] gives the blink phase at an instant).
-    pub fn leds(&self, core: &Core) -> Leds {
+    /// The same encoder behaviour over another dictionary with this variant's rows (the
+    /// J1939 WV58MR's: same CiA 406 objects, same hooks 1..=5 and 7).
+    pub(crate) fn with_table(variant: Variant, table: &'static [Entry]) -> Wv5800m {
+        Wv5800m { table, ..Wv5800m::new(variant) }
+    }
+
+    /// The last valid raw count (600Ch), `None` before the first sample and while the sensor
+    /// fails.
+    pub const fn raw(&self) -> Option<u32> {
+        self.raw
+    }
+
+    /// The CAN controller's state as the device last heard it: (bus-off, an error counter at
+    /// the warning limit or error passive).
+    pub const fn can_state(&self) -> (bool, bool) {
+        (self.bus_off, self.warning || self.passive)
+    }
+
+    /// Recomputes the derived objects (6002h, 650Ah, 6500h, 6004h), the work areas, alarms,
+    /// warnings and error conditions after the dictionary changed outside [`Device::on_write`].
+    pub(crate) fn refresh(&mut self, core: &mut Core, now: Instant) {
+        self.ensure_started(core);
+        self.derive(&mut core.od);
+        self.evaluate(core, now);
+    }
+
+    /// What the three LEDs show now ([`Leds::lit`] gives the blink phase at an instant): the
+    /// node's status as it last told the device ([`CanopenDevice::on_status`]) and the
+    /// device's own conditions.
+    pub fn leds(&self) -> Leds {
         Leds::from_inputs(&LedInputs {
-            nmt: core.nmt,
-            lss_configuration: core.lss.enabled() && core.lss.state() == LssState::Configuration,
+            nmt: self.status.nmt,
+            lss_configuration: self.status.lss_configuration,
             bus_off: self.bus_off,
             warning_limit: self.warning || self.passive,
-            guard_event: guarding::life_guard_event(core),
+            guard_event: self.status.life_guard_event,
             over_speed: self.over_speed,
         })
     }
@@ -458,6 +488,10 @@ impl Device for Wv5800m {
         self.table
     }
 
+    fn link(&self, e: &Entry) -> Option<Link> {
+        (e.hook == Hook::Device(hooks::CYCLE_TIMER)).then_some(CYCLE_TIMER_LINK)
+    }
+
     fn on_write(&mut self, core: &mut Core, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
         self.ensure_started(core);
         let hook = match core.od.entry(pos).hook {
@@ -501,10 +535,10 @@ impl Device for Wv5800m {
                 core.od.set_value(0x6509, 0, before.calibrated_at(raw));
             }
             hooks::CALIBRATE => {}
+            // The access path has applied the TPDO1 event-timer rule (`link`); the two entries
+            // hold one value.
             hooks::CYCLE_TIMER => {
-                let timer = core.od.pos(0x1800, 5).ok_or(Abort::GENERAL)?;
-                pdo::on_write(core, CoreHook::PdoEventTimer, timer, value, now)?;
-                core.od.set(timer, value);
+                core.od.set_value(0x1800, 5, value);
                 core.od.set_value(0x6200, 0, value);
             }
             _ => return Ok(()),
@@ -549,6 +583,12 @@ impl Device for Wv5800m {
             }
         }
         self.report(core, now);
+    }
+}
+
+impl CanopenDevice for Wv5800m {
+    fn on_status(&mut self, status: CanopenStatus) {
+        self.status = status;
     }
 }
 

@@ -24,12 +24,11 @@
 //! The decisions are in `docs/decisions.md`, "Encoder profile (CiA 406)", "SGH10", "SGH50".
 
 use crate::abort::Abort;
+use crate::context::{BusEvent, CanError, Context as Core, ResetKind};
 use crate::encoder::{
     alarms, operating_status, warnings, Condition, EmcyConditions, SensorFault, SpeedEstimator, WorkAreas,
 };
-use crate::node::{BusEvent, CanError, Core, ResetKind};
-use crate::od::{CoreHook, Od};
-use crate::pdo;
+use crate::od::Od;
 use crate::time::Instant;
 
 /// Device-specific write hooks of the linear encoders (`Hook::Device(n)`).
@@ -383,10 +382,10 @@ impl Linear {
                 Self::set_offset(od, calibration_offset(m, c));
                 Self::set_position(od, position(m, Self::offset(od)));
             }
+            // The access path has applied the TPDO1 event-timer rule ([`Linear::link`]); the
+            // two entries hold one value.
             hooks::CYCLE_TIMER => {
-                let timer = core.od.pos(0x1800, 5).ok_or(Abort::GENERAL)?;
-                pdo::on_write(core, CoreHook::PdoEventTimer, timer, value, now)?;
-                core.od.set(timer, value);
+                core.od.set_value(0x1800, 5, value);
                 core.od.set_value(0x6200, 0, value);
             }
             hooks::WORK_AREA => core.od.set(pos, value),

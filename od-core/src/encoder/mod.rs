@@ -19,8 +19,10 @@
 pub mod linear;
 pub mod rotary;
 
+use crate::context::Context as Core;
+use crate::device::{Device, Link};
 use crate::emcy;
-use crate::node::{Core, Device};
+use crate::od::CoreHook;
 use crate::od::Od;
 use crate::time::Instant;
 
@@ -49,6 +51,11 @@ pub trait Encoder: Device {
     /// How often the shell samples the sensor, in microseconds.
     fn sample_period_us(&self) -> u32;
 }
+
+/// The encoders' cyclic timer 6200h and their TPDO1 event timer 1800h.05 are one value in two
+/// objects: a write to either follows TPDO1's event-timer rules (the device's
+/// [`Device::link`]) and sets both.
+pub const CYCLE_TIMER_LINK: Link = Link { index: 0x1800, sub: 5, hook: CoreHook::PdoEventTimer };
 
 /// Programs the factory serial number (what the production line does once): 1018h.04, the
 /// LSS address part, and 650Bh, the CiA 406 serial number, hold the same value. Both are

@@ -3,8 +3,11 @@
 
 use super::*;
 use crate::bitrate::Bitrate;
-use crate::node::{Device, Node, Output};
+use crate::context::Output;
+use crate::device::{CanopenDevice, Device};
+use crate::node::Node;
 use crate::od::{Access::*, CoreHook::*, DataType::*, Entry, Group, Hook};
+use crate::storage::{self, Loaded};
 
 const fn core(h: CoreHook) -> Hook {
     Hook::Core(h)
@@ -62,6 +65,16 @@ impl Device for Dev {
         T
     }
 }
+impl CanopenDevice for Dev {}
+
+/// The dictionary in a context (node-ID 5) and the PDO layer read from it: no device, no node.
+fn alone() -> (Context, Pdos) {
+    let (od, storage, node_id) = storage::power_on(T, &Loaded::Blank, 5);
+    let ctx = Context::new(od, storage, node_id, Bitrate::K500);
+    let mut p = Pdos::default();
+    p.reset(&ctx.od, at(0));
+    (ctx, p)
+}
 
 fn at(ms: u64) -> Instant {
     Instant::from_millis(ms)
@@ -92,12 +105,12 @@ extern crate std;
 
 /// An SDO-like write: the hook's check, then the value.
 fn write(n: &mut Node<Dev>, index: u16, sub: u8, value: u32, now: Instant) -> Result<(), Abort> {
-    let core = n.split().1;
-    let pos = core.od.find(index, sub)?;
-    if let Hook::Core(h) = core.od.entry(pos).hook {
-        on_write(core, h, pos, value, now)?;
+    let (ctx, nmt, pdo) = n.parts();
+    let pos = ctx.od.find(index, sub)?;
+    if let Hook::Core(h) = ctx.od.entry(pos).hook {
+        pdo.on_write(ctx, *nmt, h, pos, value, now)?;
     }
-    core.od.set(pos, value);
+    ctx.od.set(pos, value);
     Ok(())
 }
 
@@ -109,7 +122,7 @@ fn sync(n: &mut Node<Dev>, now: Instant) -> std::vec::Vec<Frame> {
 #[test]
 fn boot_reads_the_configuration() {
     let n = node(false);
-    let p = &n.core().pdo;
+    let p = n.pdos();
     assert_eq!((p.ntpdo, p.nrpdo), (2, 2));
     assert_eq!(p.sync, Some(CanId::Std(0x80)));
     assert_eq!(p.tpdo[0].id, CanId::Std(0x185));
@@ -178,7 +191,7 @@ fn cob_id_rules() {
     // A valid PDO keeps its identifier; bit 30 may change.
     assert_eq!(write(&mut n, 0x1800, 1, 0x190, at(0)), Err(Abort::INVALID_VALUE));
     assert_eq!(write(&mut n, 0x1800, 1, 0x4000_0185, at(0)), Ok(()));
-    assert!(!n.core().pdo.tpdo[0].rtr);
+    assert!(!n.pdos().tpdo[0].rtr);
     assert_eq!(write(&mut n, 0x1800, 1, 0x8000_0185, at(0)), Ok(()));
     assert_eq!(write(&mut n, 0x1800, 1, 0x8000_0190, at(0)), Ok(()));
     // 29-bit, stray bits, restricted identifiers.
@@ -190,7 +203,7 @@ fn cob_id_rules() {
     let g = n.rx_ids_generation();
     assert_eq!(write(&mut n, 0x1800, 1, 0x190, at(0)), Ok(()));
     assert_ne!(n.rx_ids_generation(), g);
-    assert_eq!(n.core().pdo.tpdo[0].id, CanId::Std(0x190));
+    assert_eq!(n.pdos().tpdo[0].id, CanId::Std(0x190));
     // OPERATIONAL: no COB-ID change at all.
     n.on_frame(&Frame::std(0, &[0x01, 0x05]), at(0));
     assert_eq!(write(&mut n, 0x1800, 1, 0x8000_0190, at(0)), Err(Abort::DEVICE_STATE));
@@ -210,7 +223,7 @@ fn sync_cob_id_rules() {
     // Bit 31 ignored, 29-bit allowed.
     assert_eq!(write(&mut n, 0x1005, 0, 0x8000_0081, at(0)), Ok(()));
     assert_ne!(n.rx_ids_generation(), g);
-    assert_eq!(n.core().pdo.sync, Some(CanId::Std(0x81)));
+    assert_eq!(n.pdos().sync, Some(CanId::Std(0x81)));
     n.on_frame(&Frame::std(0, &[0x01, 0x05]), at(0));
     assert!(sync(&mut n, at(1)).is_empty());
     n.on_frame(&Frame::std(0x81, &[]), at(1));
@@ -296,12 +309,12 @@ fn event_timer_timing() {
 #[test]
 fn set_event_timer_writes_the_entry() {
     let mut n = node(true);
-    let core = n.split().1;
-    set_event_timer(core, 0, 20, at(0)).unwrap();
-    assert_eq!(core.od.value(0x1800, 5), Some(20));
-    assert_eq!(next_deadline(core), Some(at(20)));
-    assert_eq!(set_event_timer(core, 1, 20, at(0)), Err(Abort::READ_ONLY), "TPDO2 has no writable timer");
-    assert_eq!(set_event_timer(core, 3, 20, at(0)), Err(Abort::NO_OBJECT));
+    let (ctx, _, pdo) = n.parts();
+    pdo.set_event_timer(ctx, 0, 20, at(0)).unwrap();
+    assert_eq!(ctx.od.value(0x1800, 5), Some(20));
+    assert_eq!(pdo.next_deadline(), Some(at(20)));
+    assert_eq!(pdo.set_event_timer(ctx, 1, 20, at(0)), Err(Abort::READ_ONLY), "TPDO2 has no writable timer");
+    assert_eq!(pdo.set_event_timer(ctx, 3, 20, at(0)), Err(Abort::NO_OBJECT));
 }
 
 #[test]
@@ -352,38 +365,40 @@ fn rtr_rules() {
 
 #[test]
 fn rpdo_writes_mapped_entries_with_limits() {
-    let mut n = node(false);
+    let (mut ctx, mut p) = alone();
+    let c = &mut ctx;
     let data = [0x01, 0x02, 0x03, 0x04, 0x9C, 0xFF, 0x42, 0xAA];
-    let core = n.split().1;
-    assert_eq!(on_frame(core, &Frame::std(0x205, &data), at(0)), PdoEvent::None, "PRE-OPERATIONAL");
-    core.nmt = NmtState::Operational;
-    on_state(core, at(0));
-    assert_eq!(on_frame(core, &Frame::std(0x205, &data), at(0)), PdoEvent::Rpdo(0));
-    assert_eq!(core.od.value(0x2002, 0), Some(0x0403_0201));
-    assert_eq!(core.od.value(0x2001, 0), Some(0xFF9C));
-    assert_eq!(core.od.value(0x2000, 0), Some(0x42));
+    let pre = NmtState::PreOperational;
+    assert_eq!(p.on_frame(c, pre, &Frame::std(0x205, &data), at(0)), PdoEvent::None, "PRE-OPERATIONAL");
+    let op = NmtState::Operational;
+    p.on_state(&c.od, op, at(0));
+    assert_eq!(p.on_frame(c, op, &Frame::std(0x205, &data), at(0)), PdoEvent::Rpdo(0));
+    assert_eq!(c.od.value(0x2002, 0), Some(0x0403_0201));
+    assert_eq!(c.od.value(0x2001, 0), Some(0xFF9C));
+    assert_eq!(c.od.value(0x2000, 0), Some(0x42));
     // Too short: ignored. -101 is below 2001h's limit: the whole RPDO is discarded.
-    assert_eq!(on_frame(core, &Frame::std(0x205, &data[..6]), at(0)), PdoEvent::None);
+    assert_eq!(p.on_frame(c, op, &Frame::std(0x205, &data[..6]), at(0)), PdoEvent::None);
     let bad = [0, 0, 0, 0, 0x9B, 0xFF, 0x43];
-    assert_eq!(on_frame(core, &Frame::std(0x205, &bad), at(0)), PdoEvent::None);
-    assert_eq!(core.od.value(0x2000, 0), Some(0x42));
-    assert_eq!(core.od.value(0x2002, 0), Some(0x0403_0201));
+    assert_eq!(p.on_frame(c, op, &Frame::std(0x205, &bad), at(0)), PdoEvent::None);
+    assert_eq!(c.od.value(0x2000, 0), Some(0x42));
+    assert_eq!(c.od.value(0x2002, 0), Some(0x0403_0201));
     // RTR on an RPDO is the device's to answer.
-    assert_eq!(on_frame(core, &Frame::remote(CanId::Std(0x205), 8), at(0)), PdoEvent::RpdoRtr(0));
-    reply(core, 0, 1);
-    assert_eq!(core.out.pop(), Some(Output::Frame(Frame::std(0x205, &[0x42, 0x01, 0x02]))));
+    assert_eq!(p.on_frame(c, op, &Frame::remote(CanId::Std(0x205), 8), at(0)), PdoEvent::RpdoRtr(0));
+    p.reply(c, 0, 1);
+    assert_eq!(c.out.pop(), Some(Output::Frame(Frame::std(0x205, &[0x42, 0x01, 0x02]))));
 }
 
 #[test]
 fn synchronous_rpdo_applies_at_the_next_sync() {
-    let mut n = node(true);
-    let core = n.split().1;
+    let (mut c, mut p) = alone();
+    let op = NmtState::Operational;
+    p.on_state(&c.od, op, at(0));
     // Dummy byte skipped; 16 bits into an INTEGER32 are sign-extended.
-    assert_eq!(on_frame(core, &Frame::std(0x305, &[0x77, 0xFE, 0xFF]), at(0)), PdoEvent::None);
-    assert_eq!(core.od.value(0x2004, 0), Some(0));
-    assert_eq!(on_frame(core, &Frame::std(0x80, &[]), at(0)), PdoEvent::Sync { rpdos: 0b10 });
-    assert_eq!(core.od.value(0x2004, 0), Some(-2i32 as u32));
-    assert_eq!(on_frame(core, &Frame::std(0x80, &[]), at(0)), PdoEvent::Sync { rpdos: 0 });
+    assert_eq!(p.on_frame(&mut c, op, &Frame::std(0x305, &[0x77, 0xFE, 0xFF]), at(0)), PdoEvent::None);
+    assert_eq!(c.od.value(0x2004, 0), Some(0));
+    assert_eq!(p.on_frame(&mut c, op, &Frame::std(0x80, &[]), at(0)), PdoEvent::Sync { rpdos: 0b10 });
+    assert_eq!(c.od.value(0x2004, 0), Some(-2i32 as u32));
+    assert_eq!(p.on_frame(&mut c, op, &Frame::std(0x80, &[]), at(0)), PdoEvent::Sync { rpdos: 0 });
 }
 
 #[test]
@@ -500,32 +515,32 @@ mod model {
                     }
                 }
                 let operational = n.nmt_state() == NmtState::Operational;
-                let core = n.core();
-                let pdo_ids: std::vec::Vec<CanId> = core.pdo.tpdos().iter().map(|t| t.id)
-                    .chain(core.pdo.rpdos().iter().map(|r| r.id)).collect();
+                let pdos = n.pdos();
+                let pdo_ids: std::vec::Vec<CanId> = pdos.tpdos().iter().map(|t| t.id)
+                    .chain(pdos.rpdos().iter().map(|r| r.id)).collect();
                 for f in frames(&mut n) {
                     if pdo_ids.contains(&f.id) {
                         prop_assert!(operational, "PDO {f:?} outside OPERATIONAL");
                     }
                 }
                 if !operational {
-                    prop_assert_eq!(n.core().pdo.deadline, None);
+                    prop_assert_eq!(n.pdos().deadline, None);
                 }
             }
             // The cache kept by the write rules equals a fresh resolution of the dictionary.
-            let core = n.split().1;
-            let kept = core.pdo.clone();
-            reset(core, now);
-            if core.nmt == NmtState::Operational {
-                core.pdo.running = true;
+            let (ctx, nmt, pdo) = n.parts();
+            let kept = pdo.clone();
+            pdo.reset(&ctx.od, now);
+            if *nmt == NmtState::Operational {
+                pdo.running = true;
             }
-            for (a, b) in kept.tpdos().iter().zip(core.pdo.tpdos()) {
+            for (a, b) in kept.tpdos().iter().zip(pdo.tpdos()) {
                 prop_assert_eq!((a.id, a.valid, a.rtr, a.ttype, a.map), (b.id, b.valid, b.rtr, b.ttype, b.map));
             }
-            for (a, b) in kept.rpdos().iter().zip(core.pdo.rpdos()) {
+            for (a, b) in kept.rpdos().iter().zip(pdo.rpdos()) {
                 prop_assert_eq!((a.id, a.valid, a.ttype, a.map), (b.id, b.valid, b.ttype, b.map));
             }
-            prop_assert_eq!(kept.sync, core.pdo.sync);
+            prop_assert_eq!(kept.sync, pdo.sync);
         }
     }
 }

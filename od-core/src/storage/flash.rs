@@ -16,8 +16,7 @@
 use embedded_storage::nor_flash::NorFlash;
 
 use super::image::{self, Image, COMMIT, COMMIT_SIZE, HEADER_SIZE, RECORD_SIZE};
-use super::{merge, Loaded};
-use crate::node::Core;
+use super::{merge, Loaded, Parameters};
 use crate::od::GroupMask;
 
 /// Where the parameter pages are: `pages` erase pages from byte `offset` of the flash the
@@ -116,7 +115,7 @@ impl<F: NorFlash> ParamFlash<F> {
 
     /// Performs an [`crate::Output::Store`]: the stored image with the current values of the
     /// groups in `mask` (see [`merge`]) becomes the newest image.
-    pub fn save(&mut self, core: &Core, mask: GroupMask) -> Result<(), SaveError<F::Error>> {
+    pub fn save(&mut self, params: &impl Parameters, mask: GroupMask) -> Result<(), SaveError<F::Error>> {
         let newest = self.newest();
         let mut image = Image::new();
         if let Some((n, _)) = newest {
@@ -124,7 +123,7 @@ impl<F: NorFlash> ParamFlash<F> {
                 return Err(SaveError::Verify);
             }
         }
-        merge(&mut image, &core.od, core.node_id, mask).map_err(|_| SaveError::TooLarge)?;
+        merge(&mut image, params.od(), params.node_id(), mask).map_err(|_| SaveError::TooLarge)?;
         self.commit(&image, newest)
     }
 

@@ -6,9 +6,10 @@
 //! - [`flash`]: a ring of flash pages over `embedded_storage::nor_flash::NorFlash`, where each
 //!   save goes to the next page and counts only once its commit marker is written;
 //! - this module: what the node does with them. At power-on the dictionary is built from the
-//!   image ([`Loaded`]); a 1010h "save" asks the shell for an [`Output::Store`]; a 1011h "load"
+//!   image ([`Loaded`]); a 1010h "save" asks the shell for an `Output::Store`; a 1011h "load"
 //!   marks groups whose factory defaults the next NMT reset loads; an NMT reset loads the
-//!   stored values back ([`Storage`] keeps them, so a reset never reads flash).
+//!   stored values back ([`Storage`] keeps them, so a reset never reads flash). The context
+//!   ([`crate::context::Context`]) joins these to the outbox and the error conditions.
 //!
 //! The decisions behind the semantics are in `docs/decisions.md`, "Parameter storage".
 
@@ -20,11 +21,7 @@ pub use flash::{ParamFlash, Region, SaveError};
 pub use image::{identity, Image, Record};
 
 use crate::abort::Abort;
-use crate::emcy;
-use crate::node::{Core, Output, ResetKind};
 use crate::od::{CoreHook, Entry, Group, GroupMask, Hook, Od};
-use crate::sdo::Written;
-use crate::time::Instant;
 
 /// The 1010h signature "save" (bytes 73h 61h 76h 65h).
 pub const SAVE: u32 = 0x6576_6173;
@@ -84,7 +81,10 @@ fn is_log(e: &Entry) -> bool {
 
 /// Does a store of `mask` write the entry?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
-    (is_user(e) && mask.contains(e.group)) || (mask.0 & GroupMask::LSS.0 != 0 && is_pending(e))
+    (is_user(e) && mask.contains(e.group))
+        || (mask.0 & GroupMask::LSS.0 != 0 && is_pending(e))
+        || (mask.0 & GroupMask::NODE_ID.0 != 0 && e.hook == Hook::Core(CoreHook::PendingNodeId))
+        || (mask.0 & GroupMask::BITRATE.0 != 0 && e.hook == Hook::Core(CoreHook::PendingBitrate))
 }
 
 /// The user-stored entries as (slot in [`Storage`], position in the table, entry).
@@ -178,106 +178,90 @@ pub fn pending(od: &Od, hook: CoreHook) -> Option<u32> {
     od.table().iter().position(|e| e.hook == Hook::Core(hook)).map(|pos| od.get(pos))
 }
 
-/// Asks the shell to persist `mask` ([`Output::Store`]); the result comes back through
-/// [`crate::Node::store_done`]. One store at a time: 08000022h while one is under way.
-/// 1010h uses it, and so does LSS "store configuration" with [`GroupMask::LSS`].
-pub fn request(core: &mut Core, mask: GroupMask) -> Result<(), Abort> {
-    if core.storage.saving.is_some() {
-        return Err(Abort::DEVICE_STATE);
-    }
-    core.storage.saving = Some(mask);
-    core.out.push(Output::Store(mask));
-    Ok(())
-}
-
 /// The group mask a 1010h/1011h sub-index selects.
-fn group_of(core: &Core, pos: usize) -> Result<GroupMask, Abort> {
-    GroupMask::from_subindex(core.od.entry(pos).sub).ok_or(Abort::CANNOT_STORE)
+pub(crate) fn group_of(od: &Od, pos: usize) -> Result<GroupMask, Abort> {
+    GroupMask::from_subindex(od.entry(pos).sub).ok_or(Abort::CANNOT_STORE)
 }
 
-/// 1010h sub 1..4: "save" stores the selected groups; the SDO answer waits for the shell.
-pub(crate) fn on_store(core: &mut Core, pos: usize, value: u32) -> Result<Written, Abort> {
-    if value != SAVE {
-        return Err(Abort::CANNOT_STORE);
-    }
-    let mask = group_of(core, pos)?;
-    request(core, mask)?;
-    Ok(Written::Deferred)
-}
-
-/// 1011h sub 1..4: "load" marks the selected groups; the next reset loads their defaults.
-/// RAM and flash are unchanged until then.
-pub(crate) fn on_restore(core: &mut Core, pos: usize, value: u32) -> Result<Written, Abort> {
-    if value != LOAD {
-        return Err(Abort::CANNOT_STORE);
-    }
-    let mask = group_of(core, pos)?;
-    core.storage.restore.0 |= mask.0;
-    Ok(Written::Done)
-}
-
-/// The shell finished the store [`request`]ed: on success the saved values become the ones a
-/// reset loads and a power-on fault is cleared (flash now holds a valid image). A pending
-/// restore stays pending: the next reset still loads the defaults (issue 13 point 10, D-STO-10).
-pub(crate) fn store_done(core: &mut Core, ok: bool, now: Instant) {
-    let Some(mask) = core.storage.saving.take() else {
-        return;
-    };
-    if !ok {
-        return;
-    }
-    let Core { od, storage, node_id, .. } = core;
-    storage.capture(od, *node_id, |e| selected(e, mask));
-    if storage.fault {
-        storage.fault = false;
-        emcy::set_error(core, EMCY_DATA_SET, 0, false, now);
-    }
-}
-
-/// Re-initialises the dictionary for an NMT reset: Reset Node loads the stored values of the
-/// communication, application and manufacturer groups, Reset Communication those of the
-/// communication group. Groups marked by 1011h get their factory defaults instead, all of
-/// them whichever reset it is (issue 13 point 10, D-STO-10), on the entries
-/// `restores(entry, groups)` picks (the device's
-/// [`crate::node::Device::restores`]). The pending node-ID and bit rate keep their RAM value
-/// (the reset activates it) unless restored; the 1003h history is kept unless restored.
-pub(crate) fn reload(core: &mut Core, kind: ResetKind, restores: impl Fn(&Entry, GroupMask) -> bool) {
-    let groups = match kind {
-        ResetKind::Node => GroupMask::ALL,
-        ResetKind::Communication => GroupMask(Group::Comm.bit()),
-    };
-    // Any reset applies a pending restore to every group 1011h named (D-STO-10).
-    let restore = core.storage.restore;
-    let restored = |e: &Entry| restore.0 != 0 && is_user(e) && restores(e, restore);
-    let Core { od, storage, node_id, .. } = core;
-    // The pending entries first: the "+ node-ID" defaults use the node-ID the reset activates.
-    for (pos, e) in od.table().iter().enumerate() {
-        if is_pending(e) && restored(e) {
-            od.set(pos, e.default_value(0));
+impl Storage {
+    /// Starts a store of `mask`: one at a time, 08000022h while one is under way.
+    pub(crate) fn begin_save(&mut self, mask: GroupMask) -> Result<(), Abort> {
+        if self.saving.is_some() {
+            return Err(Abort::DEVICE_STATE);
         }
+        self.saving = Some(mask);
+        Ok(())
     }
-    let id = pending(od, CoreHook::PendingNodeId).map(|v| v as u8).filter(|v| (1..=127).contains(v));
-    let id = id.unwrap_or(*node_id);
-    for (k, pos, e) in user_entries(od.table()) {
-        let value = if restored(e) {
-            e.default_value(id)
-        } else if !groups.contains(e.group) || is_pending(e) || is_log(e) {
-            continue;
-        } else if storage.at_default & (1 << k) != 0 {
-            e.default_value(id)
-        } else {
-            storage.stored[k]
+
+    /// Marks `mask` for a restore of its factory defaults at the next reset.
+    pub(crate) fn mark_restore(&mut self, mask: GroupMask) {
+        self.restore.0 |= mask.0;
+    }
+
+    /// The shell finished the store under way: on success the saved values become the ones a
+    /// reset loads and a power-on fault is cleared (flash now holds a valid image). A pending
+    /// restore stays pending: the next reset still loads the defaults (issue 13 point 10,
+    /// D-STO-10). Returns true when it cleared the fault.
+    pub(crate) fn finish_save(&mut self, od: &Od, node_id: u8, ok: bool) -> bool {
+        let Some(mask) = self.saving.take() else {
+            return false;
         };
-        od.set(pos, value);
+        if !ok {
+            return false;
+        }
+        self.capture(od, node_id, |e| selected(e, mask));
+        core::mem::replace(&mut self.fault, false)
     }
-    storage.restore = GroupMask::default();
+
+    /// Re-initialises `od` for a reset that reloads `groups` (Reset Node: all of them; Reset
+    /// Communication: the communication group): their stored values, except that groups
+    /// marked by 1011h get their factory defaults instead, all of them whichever reset it is
+    /// (issue 13 point 10, D-STO-10),
+    /// on the entries `restores(entry, groups)` picks (the device's
+    /// [`crate::device::Device::restores`]). The pending node-ID and bit rate keep their RAM
+    /// value (the reset activates it) unless restored; the 1003h history is kept unless
+    /// restored. `node_id` is the active node-ID.
+    pub(crate) fn reload(
+        &mut self,
+        od: &mut Od,
+        node_id: u8,
+        groups: GroupMask,
+        restores: impl Fn(&Entry, GroupMask) -> bool,
+    ) {
+        // Any reset applies a pending restore to every group 1011h named (D-STO-10).
+        let restore = self.restore;
+        let restored = |e: &Entry| restore.0 != 0 && is_user(e) && restores(e, restore);
+        // The pending entries first: the "+ node-ID" defaults use the node-ID the reset activates.
+        for (pos, e) in od.table().iter().enumerate() {
+            if is_pending(e) && restored(e) {
+                od.set(pos, e.default_value(0));
+            }
+        }
+        let id = pending(od, CoreHook::PendingNodeId).map(|v| v as u8).filter(|v| (1..=127).contains(v));
+        let id = id.unwrap_or(node_id);
+        for (k, pos, e) in user_entries(od.table()) {
+            let value = if restored(e) {
+                e.default_value(id)
+            } else if !groups.contains(e.group) || is_pending(e) || is_log(e) {
+                continue;
+            } else if self.at_default & (1 << k) != 0 {
+                e.default_value(id)
+            } else {
+                self.stored[k]
+            };
+            od.set(pos, value);
+        }
+        self.restore = GroupMask::default();
+    }
 }
 
-/// After the boot-up message: report a power-on that found the parameter flash unusable.
-pub(crate) fn boot_up(core: &mut Core, now: Instant) {
-    if core.storage.fault {
-        emcy::set_error(core, EMCY_DATA_SET, 0, true, now);
-    }
+/// What a store reads: the dictionary and the node-ID its "+ node-ID" defaults follow
+/// ([`crate::context::Context`] is one).
+pub trait Parameters {
+    /// The dictionary.
+    fn od(&self) -> &Od;
+    /// The node-ID the "+ node-ID" defaults follow.
+    fn node_id(&self) -> u8;
 }
 
 /// Updates `image` (what the flash holds) for a store of `mask`: the selected entries get

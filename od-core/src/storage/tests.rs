@@ -3,8 +3,11 @@
 
 use super::*;
 use crate::bitrate::Bitrate;
+use crate::context::{Output, ResetKind, Written};
+use crate::device::{CanopenDevice, Device};
 use crate::devices::sgh10;
-use crate::node::{Device, Node};
+use crate::node::Node;
+use crate::time::Instant;
 
 struct Sgh10;
 impl Device for Sgh10 {
@@ -12,6 +15,7 @@ impl Device for Sgh10 {
         sgh10::TABLE
     }
 }
+impl CanopenDevice for Sgh10 {}
 
 fn by_group(e: &Entry, mask: GroupMask) -> bool {
     mask.contains(e.group)
@@ -139,14 +143,14 @@ fn merge_drops_records_of_removed_entries() {
 fn store_checks_the_signature_and_defers() {
     let mut node = Node::new(Sgh10, 1, Bitrate::K500);
     let core = node.split().1;
-    assert_eq!(on_store(core, pos(0x1010, 1), 0x6576_6174), Err(Abort::CANNOT_STORE));
-    assert_eq!(on_store(core, pos(0x1010, 1), LOAD), Err(Abort::CANNOT_STORE));
+    assert_eq!(core.on_store(pos(0x1010, 1), 0x6576_6174), Err(Abort::CANNOT_STORE));
+    assert_eq!(core.on_store(pos(0x1010, 1), LOAD), Err(Abort::CANNOT_STORE));
     assert!(core.out.is_empty());
-    assert_eq!(on_store(core, pos(0x1010, 3), SAVE), Ok(Written::Deferred));
+    assert_eq!(core.on_store(pos(0x1010, 3), SAVE), Ok(Written::Deferred));
     assert_eq!(core.out.pop(), Some(Output::Store(GroupMask(Group::App.bit()))));
-    assert_eq!(on_store(core, pos(0x1010, 1), SAVE), Err(Abort::DEVICE_STATE), "one at a time");
-    store_done(core, false, Instant::ZERO);
-    assert_eq!(on_store(core, pos(0x1010, 1), SAVE), Ok(Written::Deferred));
+    assert_eq!(core.on_store(pos(0x1010, 1), SAVE), Err(Abort::DEVICE_STATE), "one at a time");
+    core.store_done(false, Instant::ZERO);
+    assert_eq!(core.on_store(pos(0x1010, 1), SAVE), Ok(Written::Deferred));
     assert_eq!(core.out.pop(), Some(Output::Store(GroupMask::ALL)));
 }
 
@@ -155,9 +159,9 @@ fn restore_checks_the_signature_and_waits_for_the_reset() {
     let mut node = Node::new(Sgh10, 1, Bitrate::K500);
     set(&mut node, 0x1017, 0, 100);
     let core = node.split().1;
-    assert_eq!(on_restore(core, pos(0x1011, 2), SAVE), Err(Abort::CANNOT_STORE));
+    assert_eq!(core.on_restore(pos(0x1011, 2), SAVE), Err(Abort::CANNOT_STORE));
     assert_eq!(core.storage.restore_pending(), GroupMask(0));
-    assert_eq!(on_restore(core, pos(0x1011, 2), LOAD), Ok(Written::Done));
+    assert_eq!(core.on_restore(pos(0x1011, 2), LOAD), Ok(Written::Done));
     assert_eq!(core.storage.restore_pending(), GroupMask(Group::Comm.bit()));
     assert_eq!(core.od.value(0x1017, 0), Some(100), "RAM unchanged until the reset");
     assert!(core.out.is_empty(), "flash unchanged");
@@ -170,11 +174,11 @@ fn reset_node_reloads_stored_values_reset_communication_only_comm() {
     set(&mut node, 0x1017, 0, 200);
     set(&mut node, 0x6002, 0, 6000);
     set(&mut node, 0x100C, 0, 10);
-    reload(node.split().1, ResetKind::Communication, by_group);
+    node.split().1.reload(ResetKind::Communication, by_group);
     assert_eq!(value(&node, 0x1017, 0), 100);
     assert_eq!(value(&node, 0x100C, 0), 0);
     assert_eq!(value(&node, 0x6002, 0), 6000, "application untouched by 82h");
-    reload(node.split().1, ResetKind::Node, by_group);
+    node.split().1.reload(ResetKind::Node, by_group);
     assert_eq!(value(&node, 0x6002, 0), 5000);
 }
 
@@ -184,7 +188,7 @@ fn reset_keeps_the_pending_node_id_and_the_error_history() {
     set(&mut node, 0x5F0A, 1, 5);
     set(&mut node, 0x1003, 0, 1);
     set(&mut node, 0x1003, 1, 0x8120);
-    reload(node.split().1, ResetKind::Node, by_group);
+    node.split().1.reload(ResetKind::Node, by_group);
     assert_eq!(value(&node, 0x5F0A, 1), 5);
     assert_eq!((value(&node, 0x1003, 0), value(&node, 0x1003, 1)), (1, 0x8120));
     assert_eq!(value(&node, 0x1014, 0), 0x85, "defaults follow the node-ID the reset activates");
@@ -197,8 +201,8 @@ fn restore_then_any_reset_loads_defaults_of_every_restored_group() {
     set(&mut node, 0x1003, 0, 1);
     set(&mut node, 0x1003, 1, 0x8120);
     let core = node.split().1;
-    on_restore(core, pos(0x1011, 1), LOAD).unwrap();
-    reload(core, ResetKind::Communication, by_group);
+    core.on_restore(pos(0x1011, 1), LOAD).unwrap();
+    core.reload(ResetKind::Communication, by_group);
     assert_eq!(core.od.value(0x1017, 0), Some(0));
     assert_eq!(core.od.value(0x1003, 1), Some(0), "restoring comm clears the history");
     assert_eq!(core.od.value(0x1003, 0), Some(core.od.entry(pos(0x1003, 0)).default_value(1)));
@@ -207,11 +211,11 @@ fn restore_then_any_reset_loads_defaults_of_every_restored_group() {
     assert_eq!(core.od.value(0x5F0A, 1), Some(1), "node-ID back to its default");
     assert_eq!(core.od.value(0x1014, 0), Some(0x81));
     assert_eq!(core.storage.restore_pending(), GroupMask(0));
-    reload(core, ResetKind::Node, by_group);
+    core.reload(ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x6002, 0), Some(5000), "applied: 81h loads the stored value");
     // Nothing was saved: the next reset loads the stored values again.
     core.od.set_value(0x1017, 0, 7);
-    reload(core, ResetKind::Communication, by_group);
+    core.reload(ResetKind::Communication, by_group);
     assert_eq!(core.od.value(0x1017, 0), Some(100));
 }
 
@@ -221,18 +225,18 @@ fn a_successful_save_becomes_what_resets_load_and_keeps_a_restore() {
     set(&mut node, 0x1017, 0, 100);
     set(&mut node, 0x6002, 0, 5000);
     let core = node.split().1;
-    on_restore(core, pos(0x1011, 1), LOAD).unwrap();
-    on_store(core, pos(0x1010, 2), SAVE).unwrap();
-    store_done(core, true, Instant::ZERO);
+    core.on_restore(pos(0x1011, 1), LOAD).unwrap();
+    core.on_store(pos(0x1010, 2), SAVE).unwrap();
+    core.store_done(true, Instant::ZERO);
     // The save does not cancel the restore (D-STO-10).
     assert_eq!(core.storage.restore_pending(), GroupMask::ALL);
     core.od.set_value(0x1017, 0, 7);
-    reload(core, ResetKind::Node, by_group);
+    core.reload(ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x1017, 0), Some(0), "restored");
     assert_eq!(core.od.value(0x6002, 0), Some(10239), "restored");
     // The restore is applied; the save is what the next reset loads.
     core.od.set_value(0x1017, 0, 7);
-    reload(core, ResetKind::Node, by_group);
+    core.reload(ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x1017, 0), Some(100), "saved");
 }
 
@@ -241,9 +245,9 @@ fn a_failed_save_changes_nothing() {
     let mut node = Node::new(Sgh10, 1, Bitrate::K500);
     set(&mut node, 0x1017, 0, 100);
     let core = node.split().1;
-    on_store(core, pos(0x1010, 1), SAVE).unwrap();
-    store_done(core, false, Instant::ZERO);
-    reload(core, ResetKind::Node, by_group);
+    core.on_store(pos(0x1010, 1), SAVE).unwrap();
+    core.store_done(false, Instant::ZERO);
+    core.reload(ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x1017, 0), Some(0));
 }
 
@@ -253,15 +257,15 @@ fn an_lss_store_saves_only_the_pending_entries() {
     set(&mut node, 0x5F0A, 2, 3);
     set(&mut node, 0x6002, 0, 5000);
     let core = node.split().1;
-    request(core, GroupMask::LSS).unwrap();
+    core.request_store(GroupMask::LSS).unwrap();
     assert_eq!(core.out.pop(), Some(Output::Store(GroupMask::LSS)));
-    store_done(core, true, Instant::ZERO);
+    core.store_done(true, Instant::ZERO);
     // Only the LSS entries were saved: a reset loads the application group's stored default.
-    reload(core, ResetKind::Node, by_group);
+    core.reload(ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x6002, 0), Some(10239));
     assert_eq!(core.od.value(0x5F0A, 2), Some(3));
-    on_restore(core, pos(0x1011, 4), LOAD).unwrap();
-    reload(core, ResetKind::Node, by_group);
+    core.on_restore(pos(0x1011, 4), LOAD).unwrap();
+    core.reload(ResetKind::Node, by_group);
     assert_eq!(core.od.value(0x5F0A, 2), Some(5), "restore: back to the default code");
 }
 
@@ -272,8 +276,8 @@ fn a_device_may_widen_what_a_restore_covers() {
         |e: &Entry, mask: GroupMask| mask.contains(e.group) || (mask.contains(Group::Comm) && e.index == 0x5F0A);
     let mut node = boot(&Loaded::Image(image(&[(0x5F0A, 1, 9), (0x6002, 0, 5000)])));
     let core = node.split().1;
-    on_restore(core, pos(0x1011, 2), LOAD).unwrap();
-    reload(core, ResetKind::Communication, bus_parameters);
+    core.on_restore(pos(0x1011, 2), LOAD).unwrap();
+    core.reload(ResetKind::Communication, bus_parameters);
     assert_eq!(core.od.value(0x5F0A, 1), Some(1));
     assert_eq!(core.od.value(0x1014, 0), Some(0x81), "defaults for the node-ID the reset activates");
     assert_eq!(core.od.value(0x6002, 0), Some(5000));

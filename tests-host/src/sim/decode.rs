@@ -1,4 +1,11 @@
-//! The live view's frame decoder: what a CANopen frame means, in one line.
+//! The live view's frame decoder: what a CANopen frame means, in one line, and the line
+//! itself, fitted to the terminal.
+//!
+//! Numbers: SDO and LSS values are shown in hex with a `0x` prefix (an SDO carries raw bytes of
+//! any type; the EDS and the manuals give most of them in hex), PDO values in decimal without a
+//! prefix (the mapped objects' types are known, so they are numbers of their kind, with the
+//! unit where one is known). Identifiers, `index:sub`, EMCY codes and the frame's bytes are hex
+//! as in candump (D-SIM-16).
 
 use od_core::node::Core;
 use od_core::{CanId, Frame};
@@ -46,11 +53,11 @@ fn sdo(d: &[u8], request: bool) -> String {
     match (request, cmd >> 5) {
         (_, 4) => format!("abort {} code {:08X}", mux(d), le(&d[4..8])),
         (true, 2) => format!("read {}", mux(d)),
-        (true, 1) if cmd & 0x02 != 0 => format!("write {} = {:X}", mux(d), le(&d[4..4 + exp_size(cmd)])),
+        (true, 1) if cmd & 0x02 != 0 => format!("write {} = 0x{:X}", mux(d), le(&d[4..4 + exp_size(cmd)])),
         (true, 1) => format!("write {} ({} bytes, segmented)", mux(d), le(&d[4..8])),
         (true, 0) => format!("segment{}", if cmd & 1 != 0 { " (last)" } else { "" }),
         (true, 3) => "segment request".into(),
-        (false, 2) if cmd & 0x02 != 0 => format!("{} = {:X}", mux(d), le(&d[4..4 + exp_size(cmd)])),
+        (false, 2) if cmd & 0x02 != 0 => format!("{} = 0x{:X}", mux(d), le(&d[4..4 + exp_size(cmd)])),
         (false, 2) => format!("{} ({} bytes, segmented)", mux(d), le(&d[4..8])),
         (false, 3) => format!("{} written", mux(d)),
         (false, 0) => {
@@ -94,7 +101,7 @@ fn lss(d: &[u8], request: bool) -> String {
     } else if matches!(cs, 0x11 | 0x13 | 0x17) {
         format!("{what}: {}", if d[1] == 0 { "ok".into() } else { format!("error {}", d[1]) })
     } else if matches!(cs, 0x5A..=0x5E) {
-        format!("{what}: {:X}", le(&d[1..5]))
+        format!("{what}: 0x{:X}", le(&d[1..5]))
     } else {
         what.into()
     }
@@ -144,7 +151,7 @@ pub fn describe(frame: &Frame, nodes: &[Known]) -> String {
     let d = frame.payload();
     let id = match frame.id {
         CanId::Std(id) => id,
-        CanId::Ext(id) => return format!("29-bit {id:08X} (J1939 PGN {:05X})", (id >> 8) & 0x3FFFF),
+        CanId::Ext(_) => return super::j1939::describe(frame, nodes),
     };
     let node = (id & 0x7F) as u8;
     if frame.rtr {
@@ -213,4 +220,39 @@ fn pdo(id: u16, d: &[u8], nodes: &[Known]) -> Option<String> {
         }
     }
     None
+}
+
+/// The J1939 parameter group of a 29-bit identifier (J1939-21 5.1.2): in PDU1 format (PF below
+/// F0h) the PDU specific byte is the destination address, not part of the PGN.
+pub(super) fn j1939_pgn(id: u32) -> String {
+    let (dp_pf, ps) = ((id >> 8) & 0x3FF00, (id >> 8) & 0xFF);
+    if (id >> 16) & 0xFF < 0xF0 {
+        format!("J1939 PGN {dp_pf:05X} to {ps:02X}")
+    } else {
+        format!("J1939 PGN {:05X}", dp_pf | ps)
+    }
+}
+
+/// The live view's line for `frame` on `bus` (candump's columns, then `text`), cut to `width`
+/// characters with a final `…` if it is longer (`None`: never cut).
+pub fn view_line(bus: &str, frame: &Frame, text: &str, width: Option<usize>) -> String {
+    let id = match frame.id {
+        CanId::Std(id) => format!("{id:03X}"),
+        CanId::Ext(id) => format!("{id:08X}"),
+    };
+    let bytes: Vec<String> = frame.payload().iter().map(|x| format!("{x:02X}")).collect();
+    let data = if frame.rtr { "remote request".to_string() } else { bytes.join(" ") };
+    fit(&format!("{bus:<5} {id:>8}  [{}]  {data:<23}  {text}", frame.len), width)
+}
+
+/// `line` cut to `width` characters, the last one `…`, if it is longer.
+pub fn fit(line: &str, width: Option<usize>) -> String {
+    match width {
+        Some(w) if w > 0 && line.chars().count() > w => {
+            let mut cut: String = line.chars().take(w - 1).collect();
+            cut.push('…');
+            cut
+        }
+        _ => line.to_string(),
+    }
 }

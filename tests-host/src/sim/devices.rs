@@ -1,14 +1,16 @@
 //! The device registry: how each `--device` kind becomes nodes on a segment, each with its
-//! parameter flash and, for encoders, a simulated sensor. A kind not built yet answers
-//! [`Registry::build`] with a "not yet available" error; adding it is one arm of `plan`.
+//! parameter flash and, for encoders, a simulated sensor. Every kind is one arm of `plan`.
 
 use std::f64::consts::TAU;
 use std::path::Path;
 
+use board_plan::straps::serial_from_uid;
 use od_core::devices::{sgh10, sgh50, wv5800m};
 use od_core::encoder::rotary;
-use od_core::encoder::Encoder;
-use od_core::node::{Core, Node, Output};
+use od_core::encoder::{program_serial, Encoder};
+use od_core::lss::Lss;
+use od_core::nmt::NmtState;
+use od_core::node::{BusEvent, CanopenDevice, Context, Core, Node, Output, RxIds};
 use od_core::od::{CoreHook, Entry, Hook};
 use od_core::storage::{identity, Image, Loaded, ParamFlash, Record, Region};
 use od_core::{Frame, Instant};
@@ -21,7 +23,7 @@ use crate::segment::{Boot, NodeFlash, Station};
 pub const REGION: Region = Region { offset: 0, pages: 4 };
 
 /// An encoder node with its simulated sensor: the sensor is sampled at the device's period.
-pub struct Sensed<E: Encoder> {
+pub struct Sensed<E: Encoder + CanopenDevice> {
     node: Node<E>,
     /// What the device shows (LEDs, screen), for the live view.
     panel: Option<Panel<E>>,
@@ -31,7 +33,7 @@ pub struct Sensed<E: Encoder> {
     next_sample: Instant,
 }
 
-impl<E: Encoder> Sensed<E> {
+impl<E: Encoder + CanopenDevice> Sensed<E> {
     /// `node` whose sensor moves as `motion` within 0..=`max`.
     pub fn new(node: Node<E>, motion: Motion, max: u32) -> Sensed<E> {
         Sensed { node, panel: None, motion, max, next_sample: Instant::ZERO }
@@ -48,8 +50,8 @@ impl<E: Encoder> Sensed<E> {
 pub type Panel<E> = fn(&E, &Core) -> String;
 
 /// The WV5800M's three LEDs (CiA 303-3 green and red, yellow over-speed).
-fn wv5800m_leds(d: &wv5800m::Wv5800m, core: &Core) -> String {
-    let l = d.leds(core);
+fn wv5800m_leds(d: &wv5800m::Wv5800m, _: &Core) -> String {
+    let l = d.leds();
     format!("LEDs green={:?} red={:?} yellow={:?}", l.green, l.red, l.yellow)
 }
 
@@ -63,7 +65,7 @@ pub fn raw_at(motion: Motion, max: u32, t: f64) -> u32 {
     v.clamp(0.0, max as f64) as u32
 }
 
-impl<E: Encoder> Station for Sensed<E> {
+impl<E: Encoder + CanopenDevice> od_core::Station for Sensed<E> {
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
         self.node.on_frame(frame, now)
     }
@@ -86,11 +88,29 @@ impl<E: Encoder> Station for Sensed<E> {
     fn next_output(&mut self) -> Option<Output> {
         self.node.next_output()
     }
-    fn store_done(&mut self, ok: bool, now: Instant) {
-        self.node.store_done(if ok { Ok(()) } else { Err(()) }, now)
+    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.node.store_done(result, now)
     }
-    fn core(&self) -> &Core {
-        self.node.core()
+    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.node.on_bus_event(event, now)
+    }
+    fn rx_ids(&self) -> RxIds {
+        self.node.rx_ids()
+    }
+    fn rx_ids_generation(&self) -> u32 {
+        self.node.rx_ids_generation()
+    }
+    fn context(&self) -> &Context {
+        self.node.context()
+    }
+}
+
+impl<E: Encoder + CanopenDevice> Station for Sensed<E> {
+    fn nmt(&self) -> Option<NmtState> {
+        Some(self.node.nmt_state())
+    }
+    fn lss(&self) -> Option<&Lss> {
+        Some(self.node.lss())
     }
     fn panel(&self) -> Option<String> {
         self.panel.map(|p| p(self.node.device(), self.node.core()))
@@ -121,10 +141,12 @@ impl<'a> Registry<'a> {
     }
 
     /// The nodes of `spec`; `ordinal` numbers devices of the same kind on the same bus (it
-    /// names the flash files, so the same command line finds the same flash again).
-    pub fn build(&self, spec: &DeviceSpec, ordinal: usize) -> Result<Vec<NodePlan>, String> {
+    /// names the flash files, so the same command line finds the same flash again), `position`
+    /// is the device's place on the command line (from 0; it makes the board's unique ID, see
+    /// [`board_uid`]).
+    pub fn build(&self, spec: &DeviceSpec, ordinal: usize, position: usize) -> Result<Vec<NodePlan>, String> {
         let mut plans = Vec::new();
-        for (n, channel) in plan(spec)?.into_iter().enumerate() {
+        for (n, channel) in plan(spec, position)?.into_iter().enumerate() {
             let file = format!("{}-{}-{}{}.flash", spec.bus, spec.kind.name(), ordinal, channel.suffix);
             let node = match spec.node {
                 Some(UNCONFIGURED) => Some(UNCONFIGURED),
@@ -134,7 +156,12 @@ impl<'a> Registry<'a> {
                 Some(id) => Some(id + n as u8),
                 None => None,
             };
-            let params = self.params(&file, channel.table, node, spec.serial)?;
+            // `serial=` is the first channel's; the second channel is a board of its own.
+            let serial = spec.serial.map(|s| s.wrapping_add(n as u32));
+            // J1939: `address=` is what 5F0Ah.01 was set to, both channels alike (D-J1939-17);
+            // their serial numbers, and so their NAMEs, differ.
+            let node = if spec.kind.is_j1939() { spec.address } else { node };
+            let params = self.params(&file, channel.table, node, serial)?;
             plans.push(NodePlan { label: channel.label, bus: spec.bus.clone(), params, boot: channel.boot });
         }
         Ok(plans)
@@ -221,9 +248,38 @@ const fn linear_max(max_steps: i64) -> u32 {
     (max_steps * 100) as u32
 }
 
-fn encoder_boot<E: Encoder + Clone + 'static>(device: E, motion: Motion, max: u32, panel: Option<Panel<E>>) -> Boot {
+/// The 96-bit unique device ID of a simulated board (what an STM32 holds at 1FFFF7E8h): the
+/// bus name's hash, then the device's `position` on the command line, its kind and its
+/// `channel`. On one bus only the last four bytes differ between boards, and a CRC-32 tells
+/// apart any two messages of equal length that differ within 32 consecutive bits, so
+/// [`serial_from_uid`] gives every board of a bus its own serial number (D-SIM-14).
+pub fn board_uid(bus: &str, kind: Kind, position: usize, channel: usize) -> [u8; 12] {
+    let hash = bus.bytes().fold(0x811C_9DC5u32, |h, b| (h ^ b as u32).wrapping_mul(0x0100_0193));
+    let kind = Kind::ALL.iter().position(|(_, k)| *k == kind).unwrap_or(0) as u8;
+    let mut uid = [0u8; 12];
+    uid[..4].copy_from_slice(b"SIM\0");
+    uid[4..8].copy_from_slice(&hash.to_le_bytes());
+    uid[8..10].copy_from_slice(&(position as u16).to_le_bytes());
+    uid[10] = kind;
+    uid[11] = channel as u8;
+    uid
+}
+
+fn encoder_boot<E: Encoder + CanopenDevice + Clone + 'static>(
+    device: E,
+    motion: Motion,
+    max: u32,
+    panel: Option<Panel<E>>,
+    uid: [u8; 12],
+) -> Boot {
     Box::new(move |loaded: &Loaded| {
-        let sensed = Sensed::new(Node::boot(device.clone(), loaded), motion, max);
+        let mut node = Node::boot(device.clone(), loaded);
+        // As the firmware boots: no serial number in the flash, the one of the unique ID (in
+        // RAM only; the production line writes the real one as factory data).
+        if loaded.image().is_none_or(|image| image.get(0x1018, 4).is_none()) {
+            program_serial(&mut node.split().1.od, serial_from_uid(&uid));
+        }
+        let sensed = Sensed::new(node, motion, max);
         Box::new(match panel {
             Some(p) => sensed.with_panel(p),
             None => sensed,
@@ -232,9 +288,8 @@ fn encoder_boot<E: Encoder + Clone + 'static>(device: E, motion: Motion, max: u3
 }
 
 /// The nodes a device spec makes. The one place that knows every kind.
-fn plan(spec: &DeviceSpec) -> Result<Vec<Channel>, String> {
-    let unavailable =
-        |what: &str| Err(format!("--device {}: {what} not yet available in this build", spec.kind.name()));
+fn plan(spec: &DeviceSpec, position: usize) -> Result<Vec<Channel>, String> {
+    let uid = |channel| board_uid(&spec.bus, spec.kind, position, channel);
     if spec.kind.is_j1939() {
         if spec.node.is_some() {
             return Err(format!("--device {}: a J1939 device takes address=, not node=", spec.kind.name()));
@@ -258,7 +313,7 @@ fn plan(spec: &DeviceSpec) -> Result<Vec<Channel>, String> {
                 label: "SGH10".into(),
                 suffix: "",
                 table: sgh10::TABLE,
-                boot: encoder_boot(sgh10::Sgh10::new(variant), motion, max, None),
+                boot: encoder_boot(sgh10::Sgh10::new(variant), motion, max, None, uid(0)),
             }])
         }
         Kind::Sgh50 => {
@@ -272,18 +327,18 @@ fn plan(spec: &DeviceSpec) -> Result<Vec<Channel>, String> {
                     label: "SGH50".into(),
                     suffix: "",
                     table: sgh50::TABLE,
-                    boot: encoder_boot(sgh50::Sgh50::new(sgh50::Variant::Single), motion, max, None),
+                    boot: encoder_boot(sgh50::Sgh50::new(sgh50::Variant::Single), motion, max, None, uid(0)),
                 }]);
             }
-            let ch = |c, label: &str, suffix, table| Channel {
+            let ch = |c, n, label: &str, suffix, table| Channel {
                 label: label.into(),
                 suffix,
                 table,
-                boot: encoder_boot(sgh50::Sgh50::new(sgh50::Variant::Redundant(c)), motion, max, None),
+                boot: encoder_boot(sgh50::Sgh50::new(sgh50::Variant::Redundant(c)), motion, max, None, uid(n)),
             };
             Ok(vec![
-                ch(sgh50::Channel::First, "SGH50-A", "a", sgh50::TABLE),
-                ch(sgh50::Channel::Second, "SGH50-B", "b", sgh50::TABLE_SECOND),
+                ch(sgh50::Channel::First, 0, "SGH50-A", "a", sgh50::TABLE),
+                ch(sgh50::Channel::Second, 1, "SGH50-B", "b", sgh50::TABLE_SECOND),
             ])
         }
         Kind::Wv5800m => {
@@ -298,12 +353,60 @@ fn plan(spec: &DeviceSpec) -> Result<Vec<Channel>, String> {
                 label: variant.model.name().into(),
                 suffix: "",
                 table: wv5800m::table_of(variant),
-                boot: encoder_boot(wv5800m::Wv5800m::new(variant), motion, max, Some(wv5800m_leds)),
+                boot: encoder_boot(wv5800m::Wv5800m::new(variant), motion, max, Some(wv5800m_leds), uid(0)),
             }])
         }
-        Kind::Ap10t => unavailable("the AP10T"),
-        Kind::Wv58mr => unavailable("the WV58MR (J1939)"),
+        Kind::Ap10t => ap10t(spec),
+        Kind::Wv58mr => {
+            use od_core::devices::wv58mr;
+            let turns = wv58mr_turns(spec.variant.as_deref())?;
+            let max = rotary::raw_range(turns.revolutions()) - 1;
+            let motion = spec.motion.unwrap_or(Motion::Ramp(rotary::PHYSICAL_STEPS as f64 / 2.0));
+            let boot = move || -> Boot {
+                Box::new(move |loaded: &Loaded| {
+                    let node = od_core::j1939::node::J1939Node::boot(wv58mr::Wv58mr::new(turns), loaded);
+                    Box::new(super::j1939::SensedJ1939::new(node, motion, max))
+                })
+            };
+            let one = |label: &str, suffix| Channel {
+                label: label.into(),
+                suffix,
+                table: wv58mr::table_of(turns),
+                boot: boot(),
+            };
+            // D-J1939-17: the two channels of a redundant WV58MR are two nodes on the bus.
+            Ok(if spec.redundant { vec![one("WV58MR-A", "a"), one("WV58MR-B", "b")] } else { vec![one("WV58MR", "")] })
+        }
     }
+}
+
+/// `variant=` of a WV58MR: its revolutions, `mt12` (default), `mt8`, `mt4`, `st`.
+fn wv58mr_turns(name: Option<&str>) -> Result<wv5800m::Turns, String> {
+    use wv5800m::Turns;
+    Ok(match name.unwrap_or("mt12").to_ascii_lowercase().as_str() {
+        "st" | "1" => Turns::Single,
+        "mt4" | "16" => Turns::Multi4,
+        "mt8" | "256" => Turns::Multi8,
+        "mt12" | "4096" => Turns::Multi12,
+        v => return Err(format!("--device wv58mr: unknown variant {v} (st, mt4, mt8, mt12)")),
+    })
+}
+
+/// The AP10T: one display whose bit rate is detected on the bus unless a stored one says
+/// otherwise (factory 5F0Ah.03 = Auto baud); `node=` is its node-ID (factory 7Dh).
+fn ap10t(spec: &DeviceSpec) -> Result<Vec<Channel>, String> {
+    if spec.redundant || spec.variant.is_some() || spec.motion.is_some() {
+        return Err("--device ap10t: no redundant=, variant= or motion= (a display has no sensor)".into());
+    }
+    if spec.serial.is_some() {
+        return Err("--device ap10t: its serial number is a constant (FFFFFFFFh)".into());
+    }
+    Ok(vec![Channel {
+        label: "AP10T".into(),
+        suffix: "",
+        table: od_core::devices::ap10t::table::TABLE,
+        boot: Box::new(|loaded: &Loaded| Box::new(crate::ap10t::Display::boot(loaded))),
+    }])
 }
 
 /// `variant=` of a WV5800M: model and revolutions, `wv4096` (default), `wv256`, `wv16`, `wv1`,
@@ -347,5 +450,16 @@ pub fn bench() -> Vec<DeviceSpec> {
         d(Kind::Sgh10, 10, false, Motion::Sine(300_000.0, 20.0)),
         d(Kind::Sgh50, 20, true, Motion::Ramp(50_000.0)),
         d(Kind::Wv5800m, 30, false, Motion::Sine(40_000.0, 8.0)),
+        // A redundant WV58MR on can1 (J1939, 250 kbit/s): both channels claim EFh, one moves.
+        DeviceSpec {
+            kind: Kind::Wv58mr,
+            bus: "can1".into(),
+            node: None,
+            address: None,
+            serial: Some(1050),
+            variant: None,
+            redundant: true,
+            motion: Some(Motion::Sine(1_000_000.0, 10.0)),
+        },
     ]
 }

@@ -3,6 +3,8 @@
 
 pub mod decode;
 pub mod devices;
+pub mod j1939;
+pub mod master;
 pub mod options;
 pub mod run;
 #[cfg(target_os = "linux")]

@@ -20,14 +20,18 @@ Options:
   --listen HOST:PORT      where socketcand clients connect (default 127.0.0.1:29536)
   --device KIND[:k=v,..]  add a device (repeatable). KIND: sgh10, sgh50, wv5800m, ap10t, wv58mr
                           keys: bus=can0|can1|..  node=N (CANopen node-ID 1..127, as if
-                          configured and stored before; node=unconfigured: LSS only)  address=N (J1939)  serial=N  variant=NAME
+                          configured and stored before, one per bus; node=unconfigured:
+                          LSS only)  address=N (J1939)  variant=NAME
+                          serial=N (factory serial number; default: one of the board's
+                          own, distinct on its bus)
                           redundant=true (SGH50, WV58MR: both channels)
                           position=RAW (fixed sensor value) | motion=ramp:STEPS_PER_S |
                           motion=sine:AMPL:PERIOD_S
   --state-dir DIR         each device's flash is a file in DIR; restarting with the same
                           DIR is a power cycle (default: flash in RAM, lost at exit)
-  --bitrate BUS=RATE      bus bit rate in kbit/s (can0 defaults to 500, can1 to 250);
-                          a node set to another rate neither sees nor sends frames
+  --bitrate BUS=RATE      bus bit rate in kbit/s (can0 defaults to 500, can1 to 250) of a
+                          bus with devices; a node set to another rate neither sees nor
+                          sends frames (a bus where no node runs at its rate gets a hint)
   --socketcan BUS=IFACE   also bridge BUS to a SocketCAN interface (vcan0, can0 ...), where
                           the kernel has CAN support
   --quiet                 no live view
@@ -197,7 +201,7 @@ impl Options {
 /// A bit rate in kbit/s (`500`, `500k`, or `500000`).
 pub fn parse_rate(text: &str) -> Result<Bitrate, String> {
     let t = text.trim_end_matches(['k', 'K']);
-    let n: u32 = t.parse().map_err(|_| format!("bad bit rate {text}"))?;
+    let n = digits(t, 10).and_then(|n| u32::try_from(n).ok()).ok_or(format!("bad bit rate {text}"))?;
     let kbit = if n >= 10_000 { n / 1000 } else { n };
     Bitrate::ALL
         .into_iter()
@@ -214,12 +218,18 @@ fn check_bus(bus: &str) -> Result<(), String> {
     }
 }
 
+/// Digits only: Rust's parsers also take a leading `+`, which no number here has.
+fn digits(text: &str, radix: u32) -> Option<u64> {
+    let ok = !text.is_empty() && text.chars().all(|c| c.is_digit(radix));
+    ok.then(|| u64::from_str_radix(text, radix).ok()).flatten()
+}
+
 fn number<T: TryFrom<u64>>(key: &str, v: &str) -> Result<T, String> {
     let n = match v.strip_prefix("0x").or_else(|| v.strip_prefix("0X")) {
-        Some(h) => u64::from_str_radix(h, 16),
-        None => v.parse(),
+        Some(h) => digits(h, 16),
+        None => digits(v, 10),
     }
-    .map_err(|_| format!("{key}={v}: not a number"))?;
+    .ok_or_else(|| format!("{key}={v}: not a number"))?;
     T::try_from(n).map_err(|_| format!("{key}={v}: out of range"))
 }
 

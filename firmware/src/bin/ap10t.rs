@@ -1,0 +1,16 @@
+//! AP10T set point display (CANopen, CiA 301; no LSS): two rows of six digits on the HT1621
+//! LCD, two bi-colour LEDs, four keys. Factory setting Auto baud: the controller listens silent
+//! at each candidate rate until a frame arrives (D-AP-20).
+#![no_std]
+#![no_main]
+
+use defmt_rtt as _;
+use embassy_executor::Spawner;
+use od_core::devices::ap10t::Ap10t;
+use panic_probe as _;
+
+#[embassy_executor::main]
+async fn main(_spawner: Spawner) {
+    let board = boards::ap10t::take();
+    firmware::run::run(Ap10t::new(), board.mcu, board.io).await
+}

@@ -1,0 +1,173 @@
+//! WV58MR / WH58MR absolute redundant rotary encoder with SAE J1939 interface (SIKO manual
+//! 81/25): its dictionary ([`table`]) and its transport-neutral behaviour ([`Wv58mr`]); the
+//! J1939 side is [`crate::j1939::node`].
+//!
+//! The device is two encoders in one housing (§2), each a J1939 ECU with its own LEDs, NAME
+//! and dictionary (D-J1939-17): firmware builds one channel, a redundant pair is two of them
+//! with different serial numbers.
+//!
+//! The encoder behaviour is the WV5800M's ([`crate::devices::wv5800m::Wv5800m`] over this
+//! table): the same CiA 406 objects with the same rules (scaling, counting direction, speed,
+//! limit speeds, work areas, alarms, warnings, 5000h) and the same error codes (FF05h,
+//! FF12h..FF16h, 8120h, 8140h). What differs is the WV58MR's own: writing 6003h calibrates
+//! (§4.2, D-J1939-19), 6200h is 3000h.03, 3000h holds the PGN cycle times and priorities, 3001h
+//! the NAME and 3002h restarts.
+
+pub mod table;
+
+pub use table::{hooks, table_of, DEFAULT_ADDRESS, DEFAULT_BITRATE_CODE, ENTRIES, HIGHEST_ADDRESS, LOWEST_ADDRESS};
+
+use crate::abort::Abort;
+use crate::context::{BusEvent, Context, ResetKind};
+use crate::device::Device;
+use crate::devices::wv5800m::{Model, Turns, Variant, Wv5800m};
+use crate::encoder::{Encoder, SensorFault};
+use crate::j1939::claim::State;
+use crate::j1939::led::{self, LedInputs};
+use crate::j1939::node::{Command, J1939Device};
+use crate::led::Leds;
+use crate::od::{Entry, Hook};
+use crate::time::Instant;
+use crate::wire::j1939::NameFields;
+
+/// One WV58MR channel.
+#[derive(Clone, Debug)]
+pub struct Wv58mr {
+    turns: Turns,
+    encoder: Wv5800m,
+    command: Option<Command>,
+    /// The address claimer's state as the node last told it.
+    claim: State,
+}
+
+impl Wv58mr {
+    /// A channel with `turns`, before its first sensor sample.
+    pub fn new(turns: Turns) -> Wv58mr {
+        Wv58mr {
+            turns,
+            encoder: Wv5800m::with_table(Variant { model: Model::Wv, turns }, table_of(turns)),
+            command: None,
+            claim: State::Off,
+        }
+    }
+
+    /// What the channel's three LEDs show now (manual §3, D-J1939-8): green the claim as the
+    /// node last reported it, red the CAN controller's state, yellow the over-speed;
+    /// [`Leds::lit`] gives the blink phase at an instant.
+    pub fn leds(&self) -> Leds {
+        let (bus_off, warning_limit) = self.encoder.can_state();
+        led::leds(&LedInputs { claim: self.claim, bus_off, warning_limit, over_speed: self.encoder.over_speed() })
+    }
+
+    /// The measuring range.
+    pub const fn turns(&self) -> Turns {
+        self.turns
+    }
+
+    /// Is the maximum speed exceeded (yellow LED)?
+    pub const fn over_speed(&self) -> bool {
+        self.encoder.over_speed()
+    }
+
+    /// Is the position value invalid (sensor fault)?
+    pub const fn fault(&self) -> bool {
+        self.encoder.fault()
+    }
+
+    /// The CAN controller's state as last reported: (bus-off, warning limit or error passive).
+    pub const fn can_state(&self) -> (bool, bool) {
+        self.encoder.can_state()
+    }
+
+    /// Brings the WV58MR's own derived entries in line after power-on or a reset: 3001h.01
+    /// from the factory serial, and 6200h with 3000h.03 (D-J1939-14).
+    fn start(&mut self, ctx: &mut Context) {
+        let od = &mut ctx.od;
+        let serial = od.value(0x1018, 4).unwrap_or(0);
+        od.set_value(0x3001, 1, NameFields::identity_from_serial(serial));
+        if let (Some(a), Some(b)) = (od.pos(0x3000, 3), od.pos(0x6200, 0)) {
+            let (va, vb) = (od.get(a), od.get(b));
+            let v = if va != od.entry(a).default_value(0) || vb == od.entry(b).default_value(0) { va } else { vb };
+            od.set(a, v);
+            od.set(b, v);
+        }
+    }
+}
+
+impl Device for Wv58mr {
+    fn table(&self) -> &'static [Entry] {
+        table_of(self.turns)
+    }
+
+    fn on_write(&mut self, ctx: &mut Context, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        let Hook::Device(hook) = ctx.od.entry(pos).hook else {
+            return Ok(());
+        };
+        match hook {
+            hooks::PRESET => {
+                // §4.2: writing the calibration value calibrates, "position value = 0 +
+                // calibration value + application offset" at this instant (D-J1939-19).
+                let s = self.encoder.scaling(&ctx.od);
+                if value as i32 as i64 > s.largest() as i64 {
+                    return Err(Abort::INVALID_VALUE);
+                }
+                let raw = self.encoder.raw().ok_or(Abort::NO_DATA)?;
+                ctx.od.set_value(0x6509, 0, s.calibrated_at(raw));
+                ctx.od.set(pos, value);
+                self.encoder.refresh(ctx, now);
+            }
+            // 6200h and 3000h.03: one value (D-J1939-14).
+            hooks::CYCLE_TIMER => {
+                ctx.od.set_value(0x3000, 3, value);
+            }
+            hooks::PGN_CYCLE if ctx.od.entry(pos).sub == 3 => {
+                ctx.od.set_value(0x3000, 3, value);
+                ctx.od.set_value(0x6200, 0, value);
+            }
+            // The transport reads the cycle times and priorities after the write.
+            hooks::PGN_CYCLE | hooks::PGN_PRIORITY => {}
+            hooks::SAE_INIT => self.command = Some(Command::InitialiseSae),
+            hooks::RESTART => self.command = Some(Command::Restart),
+            _ => return self.encoder.on_write(ctx, pos, value, now),
+        }
+        Ok(())
+    }
+
+    fn on_reset(&mut self, ctx: &mut Context, kind: ResetKind, now: Instant) {
+        self.command = None;
+        self.start(ctx);
+        self.encoder.on_reset(ctx, kind, now);
+    }
+
+    fn poll(&mut self, ctx: &mut Context, now: Instant) {
+        self.encoder.poll(ctx, now);
+    }
+
+    fn on_bus_event(&mut self, ctx: &mut Context, event: BusEvent, now: Instant) {
+        self.encoder.on_bus_event(ctx, event, now);
+    }
+}
+
+impl J1939Device for Wv58mr {
+    fn take_command(&mut self) -> Option<Command> {
+        self.command.take()
+    }
+
+    fn over_speed(&self) -> bool {
+        self.encoder.over_speed()
+    }
+
+    fn on_claim(&mut self, state: State) {
+        self.claim = state;
+    }
+}
+
+impl Encoder for Wv58mr {
+    fn on_sample(&mut self, ctx: &mut Context, raw: Result<u32, SensorFault>, now: Instant) {
+        self.encoder.on_sample(ctx, raw, now);
+    }
+
+    fn sample_period_us(&self) -> u32 {
+        self.encoder.sample_period_us()
+    }
+}

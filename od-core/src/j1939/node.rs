@@ -1,0 +1,473 @@
+//! A J1939 node: the transport-neutral [`Context`] (dictionary, outbox, storage, error
+//! conditions) and a device, behind the J1939 services: address claiming
+//! ([`AddressClaimer`]), the Request responder ([`request`]), the cyclic process-data groups
+//! ([`Scheduler`]), parameter access over CAM21/CAM11 through the core's SDO server and the
+//! dictionary access path ([`param`], [`crate::access`]), and the EMCY group (PGN 64616). The
+//! shell drives it through [`Station`], as it drives a CANopen node.
+//!
+//! What the node does, in the order the manual's chapters go (the decisions are D-J1939-n in
+//! `docs/decisions.md`):
+//! - power-on ([`J1939Node::boot`]): the dictionary as the flash held it; the first
+//!   [`J1939Node::poll`] starts address claiming at the stored 5F0Ah.01 after the NAME's
+//!   pseudo-random delay (D-J1939-13), the green LED blinking;
+//! - received frames are parsed as J1939 identifiers (11-bit and remote frames ignored);
+//!   Address Claimed and Requests for it go to the claimer at any time, everything else only
+//!   once the claim has stood 250 ms ([`AddressClaimer::source_address`]);
+//! - once it stood: EPOS, ESPD and Proprietary B at the cycle times and priorities of 3000h
+//!   (6200h is 3000h.03), each error condition still active is announced by EMCY, and from then
+//!   on every condition that rises (its code) or falls (0000h) once (D-J1939-20);
+//! - a CAM21 request to our address is the SDO server's, through the access path; the answer
+//!   goes on CAM11 to the requester; a 1010h "save" answers when the shell reports the store
+//!   ([`J1939Node::store_done`]); a write to 3000h reaches the scheduler at once; 3002h.01 starts
+//!   claiming again, 3002h.02 restarts the node, both after the answer (D-J1939-21);
+//! - a Request for EPOS, ESPD or Proprietary B is answered with the group, one for anything
+//!   else to our address with a NACK.
+
+use crate::abort::Abort;
+use crate::access::{Access, NoServices};
+use crate::bitrate::Bitrate;
+use crate::context::{BusEvent, Context, Output, ResetKind};
+use crate::device::Device;
+use crate::errors::Gate;
+use crate::frame::Frame;
+use crate::j1939::claim::{AddressClaimer, State};
+use crate::j1939::led::{self, LedInputs};
+use crate::j1939::rx::{self, Filter};
+use crate::j1939::schedule::{Cyclic, Scheduler};
+use crate::j1939::{param, request};
+use crate::led::{Leds, WARNING_LIMIT};
+use crate::od::{CoreHook, Od};
+use crate::sdo::SdoServer;
+use crate::shell::{DeviceStation, RxIds, RxMasks, Station};
+use crate::storage::{self, Loaded};
+use crate::time::{earliest, Instant};
+use crate::wire::j1939::{Address, Emcy, Epos, Espd, Identifier, Name, NameFields, Pgn, Priority, ProprietaryB};
+
+/// The EMCY group's priority (manual §5.6: 1, fixed).
+pub const EMCY_PRIORITY: u8 = 1;
+
+/// The groups the node sends and answers Requests for.
+pub const PROVIDED: [Pgn; 3] = [Pgn::EPOS, Pgn::ESPD, Pgn::PROPRIETARY_B];
+
+/// The 3000h sub-indices of each provided group: (cycle time, priority).
+const PGN_PARAMETERS: [(Pgn, u8, u8); 3] = [(Pgn::PROPRIETARY_B, 1, 4), (Pgn::ESPD, 2, 5), (Pgn::EPOS, 3, 6)];
+
+/// A command a device asks its J1939 node to carry out after the answer to the write that
+/// gave it (the WV58MR's 3002h).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Command {
+    /// "SAE initialisieren" (3002h.01): claim again, at the 5F0Ah.01 the dictionary holds now;
+    /// the dictionary stays.
+    InitialiseSae,
+    /// "Gerät neu starten" (3002h.02): restart as after power-on (the stored parameters are
+    /// loaded, the stored address and bit rate take effect) and claim again.
+    Restart,
+}
+
+/// What a J1939 node needs from its device beyond [`Device`].
+pub trait J1939Device: Device {
+    /// The command the last write gave, if any (taken once).
+    fn take_command(&mut self) -> Option<Command> {
+        None
+    }
+
+    /// Is the maximum speed exceeded (the yellow LED)?
+    fn over_speed(&self) -> bool {
+        false
+    }
+
+    /// The address claimer's state changed (or may have): what the green LED shows.
+    fn on_claim(&mut self, state: State) {
+        let _ = state;
+    }
+}
+
+/// The lowest and highest address the node may claim: the limits of the pending address
+/// entry (5F0Ah.01), J1939-81's 128..247 without one.
+fn address_range(od: &Od) -> (u8, u8) {
+    od.find_hook(CoreHook::PendingNodeId)
+        .and_then(|p| od.entry(p).limits())
+        .map(|(lo, hi)| (lo as u8, hi as u8))
+        .unwrap_or((128, 247))
+}
+
+/// The NAME the dictionary's 3001h holds (all zero fields without one).
+pub fn name_of(od: &Od) -> Name {
+    let v = |s: u8| od.value(0x3001, s).unwrap_or(0);
+    let fields = NameFields {
+        arbitrary_address_capable: v(10) != 0,
+        industry_group: v(9) as u8,
+        vehicle_system_instance: v(8) as u8,
+        vehicle_system: v(6) as u8,
+        reserved: v(7) != 0,
+        function: v(5) as u8,
+        function_instance: v(4) as u8,
+        ecu_instance: v(3) as u8,
+        manufacturer_code: v(2) as u16,
+        identity_number: v(1),
+    };
+    Name::from_fields(&fields).unwrap_or(Name::from_raw(0))
+}
+
+/// A J1939 node running device `D`.
+pub struct J1939Node<D: J1939Device> {
+    ctx: Context,
+    device: D,
+    sdo: SdoServer,
+    claim: AddressClaimer,
+    cyclic: Scheduler<3>,
+    /// Claiming has been started (the first poll after power-on or a restart).
+    started: bool,
+    /// The requester of the CAM21 write whose answer waits for the store.
+    deferred_to: Option<Address>,
+    /// The requester of the last CAM21 request (a segmented transfer's timeout goes there).
+    requester: Option<Address>,
+    bus_off: bool,
+    warning: bool,
+    passive: bool,
+    generation: u32,
+}
+
+impl<D: J1939Device> J1939Node<D> {
+    /// A node that has just been powered on with the dictionary as the parameter flash held
+    /// it (`storage::ParamFlash::load`): its address and bit rate are the stored 5F0Ah ones
+    /// (the defaults on a blank flash). Claiming starts at the first [`J1939Node::poll`].
+    pub fn boot(device: D, loaded: &Loaded) -> J1939Node<D> {
+        let table = device.table();
+        let (od, storage, address) = storage::power_on(table, loaded, 0xFE);
+        let bitrate = pending_bitrate(&device, &od).unwrap_or(Bitrate::K250);
+        let (lo, hi) = address_range(&od);
+        let mut node = J1939Node {
+            ctx: Context::new(od, storage, address, bitrate),
+            device,
+            sdo: SdoServer::new(),
+            claim: AddressClaimer::new(Name::from_raw(0), Address(address), lo, hi),
+            cyclic: Scheduler::new([
+                Cyclic::new(Pgn::PROPRIETARY_B, 0, Priority::DEFAULT),
+                Cyclic::new(Pgn::ESPD, 0, Priority::DEFAULT),
+                Cyclic::new(Pgn::EPOS, 0, Priority::DEFAULT),
+            ]),
+            started: false,
+            deferred_to: None,
+            requester: None,
+            bus_off: false,
+            warning: false,
+            passive: false,
+            generation: 0,
+        };
+        // Error conditions go out as J1939 EMCY, once the claim stood (D-J1939-20).
+        node.ctx.errors.announce_with(announce);
+        node.ctx.errors.set_gate(Gate::Drop);
+        node.device.on_reset(&mut node.ctx, ResetKind::Node, Instant::ZERO);
+        node.claim = AddressClaimer::new(name_of(&node.ctx.od), Address(address), lo, hi);
+        node.sync_schedule(Instant::ZERO);
+        node
+    }
+
+    /// The shared state.
+    pub fn context(&self) -> &Context {
+        &self.ctx
+    }
+
+    /// The device.
+    pub fn device(&self) -> &D {
+        &self.device
+    }
+
+    /// The address claimer (its state, NAME and delays, for the LEDs and tests).
+    pub fn claimer(&self) -> &AddressClaimer {
+        &self.claim
+    }
+
+    /// The address the node sends from, once its claim has stood.
+    pub fn source_address(&self) -> Option<Address> {
+        self.claim.source_address()
+    }
+
+    /// What the three LEDs show now ([`Leds::lit`] gives the blink phase at an instant).
+    pub fn leds(&self) -> Leds {
+        led::leds(&LedInputs {
+            claim: self.claim.state(),
+            bus_off: self.bus_off,
+            warning_limit: self.warning || self.passive,
+            over_speed: self.device.over_speed(),
+        })
+    }
+
+    /// The acceptance filters (identifier and mask) for the frames the node acts on now.
+    pub fn filters(&self) -> [Filter; 4] {
+        rx::filters(self.claim.address())
+    }
+
+    /// Handles one received frame.
+    pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        let Ok(id) = Identifier::from_frame(frame) else {
+            return;
+        };
+        let data = frame.payload();
+        if id.pgn() == Pgn::ADDRESS_CLAIMED || id.pgn() == Pgn::REQUEST {
+            if let Some(f) = self.claim.on_message(&id, data, now) {
+                self.ctx.out.send(f);
+            }
+            self.follow_claim(now);
+        }
+        let own = self.claim.source_address();
+        match request::respond(&id, data, own, &PROVIDED) {
+            request::Response::Send { pgn, .. } => {
+                if let (Some(sa), Some((_, priority))) = (own, self.cyclic.get(pgn)) {
+                    if let Some(f) = self.group_frame(pgn, priority, sa) {
+                        self.ctx.out.send(f);
+                    }
+                }
+            }
+            request::Response::Nack(f) => self.ctx.out.send(f),
+            request::Response::Ignore | request::Response::AddressClaim => {}
+        }
+        if let (Some(requester), Some(sa)) = (param::requester(&id, data.len(), own), own) {
+            self.serve(data, requester, sa, now);
+        }
+    }
+
+    /// A CAM21 request from `requester` to us at `sa`.
+    fn serve(&mut self, data: &[u8], requester: Address, sa: Address, now: Instant) {
+        self.requester = Some(requester);
+        let J1939Node { ctx, device, sdo, .. } = self;
+        let reply = sdo.on_request(data, now, &mut Access { ctx, device, services: &mut NoServices });
+        match reply {
+            Some(r) => self.ctx.out.send(param::answer(&r, requester, sa)),
+            // A deferred write (1010h "save"): the answer follows the store.
+            None => self.deferred_to = Some(requester),
+        }
+        self.sync_schedule(now);
+        match self.device.take_command() {
+            Some(Command::InitialiseSae) => self.restart_claim(now),
+            Some(Command::Restart) => self.restart(now),
+            None => {}
+        }
+    }
+
+    /// The CAN controller reported `event`: the LEDs and the device's diagnosis follow.
+    pub fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        match event {
+            BusEvent::ErrorPassive => self.passive = true,
+            BusEvent::ErrorActive => self.passive = false,
+            BusEvent::BusOff => self.bus_off = true,
+            BusEvent::BusOffRecovered => {
+                self.bus_off = false;
+                self.passive = false;
+                self.warning = false;
+            }
+            BusEvent::ErrorCounters { rx, tx } => self.warning = rx >= WARNING_LIMIT || tx >= WARNING_LIMIT,
+            BusEvent::RxOverrun | BusEvent::ProtocolError(_) => {}
+        }
+        self.device.on_bus_event(&mut self.ctx, event, now);
+    }
+
+    /// Runs the timers due at `now`.
+    pub fn poll(&mut self, now: Instant) {
+        if !self.started {
+            self.started = true;
+            self.claim.start_delayed(now);
+        }
+        while let Some(f) = self.claim.poll(now) {
+            self.ctx.out.send(f);
+        }
+        self.follow_claim(now);
+        if let Some(timeout) = self.sdo.poll(now) {
+            if let (Some(rq), Some(sa)) = (self.requester, self.claim.source_address()) {
+                self.ctx.out.send(param::answer(&timeout, rq, sa));
+            }
+        }
+        self.device.poll(&mut self.ctx, now);
+        while let Some(due) = self.cyclic.poll(now) {
+            if let Some(sa) = self.claim.source_address() {
+                if let Some(f) = self.group_frame(due.pgn, due.priority, sa) {
+                    self.ctx.out.send(f);
+                }
+            }
+        }
+    }
+
+    /// When [`J1939Node::poll`] must next run.
+    pub fn next_deadline(&self) -> Option<Instant> {
+        if !self.started {
+            return Some(Instant::ZERO);
+        }
+        let mut next = self.claim.next_deadline();
+        next = earliest(next, self.sdo.next_deadline());
+        next = earliest(next, self.cyclic.next_deadline());
+        earliest(next, self.device.next_deadline())
+    }
+
+    /// Takes the next thing the shell must do.
+    pub fn next_output(&mut self) -> Option<Output> {
+        self.ctx.out.pop()
+    }
+
+    /// The shell has finished (`Ok`) or failed the [`Output::Store`] it was given: the CAM11
+    /// answer to the 1010h write goes out now.
+    pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.ctx.store_done(result.is_ok(), now);
+        let reply = self.sdo.complete_deferred(result.map_err(|()| Abort::CANNOT_STORE));
+        if let (Some(r), Some(rq), Some(sa)) = (reply, self.deferred_to.take(), self.claim.source_address()) {
+            self.ctx.out.send(param::answer(&r, rq, sa));
+        }
+    }
+
+    /// Starts or stops the cyclic groups as the claim stands or falls; a claim that has just
+    /// stood announces the error conditions still active.
+    fn follow_claim(&mut self, now: Instant) {
+        self.device.on_claim(self.claim.state());
+        match (self.claim.source_address(), self.cyclic.is_running()) {
+            (Some(sa), false) => {
+                // The context's address is the one the node sends from.
+                self.ctx.node_id = sa.0;
+                self.cyclic.start(now);
+                self.generation = self.generation.wrapping_add(1);
+                // The conditions still active are announced now, and every change from now on.
+                self.ctx.errors.set_gate(Gate::Send);
+                self.ctx.errors.defer_active();
+                self.ctx.release_deferred();
+            }
+            (None, true) => {
+                self.cyclic.stop();
+                self.ctx.errors.set_gate(Gate::Drop);
+                self.generation = self.generation.wrapping_add(1);
+            }
+            _ => {}
+        }
+    }
+
+    /// The scheduler takes the cycle times and priorities the dictionary holds (3000h).
+    fn sync_schedule(&mut self, now: Instant) {
+        for (pgn, cycle, prio) in PGN_PARAMETERS {
+            let c = self.ctx.od.value(0x3000, cycle).unwrap_or(0) as u16;
+            let p = Priority::new(self.ctx.od.value(0x3000, prio).unwrap_or(6) as u8).unwrap_or(Priority::DEFAULT);
+            if self.cyclic.get(pgn).map(|g| g.0) != Some(c) {
+                self.cyclic.set_cycle(pgn, c, now);
+            }
+            self.cyclic.set_priority(pgn, p);
+        }
+    }
+
+    /// The frame of group `pgn` with the dictionary's current values.
+    fn group_frame(&self, pgn: Pgn, priority: Priority, sa: Address) -> Option<Frame> {
+        let od = &self.ctx.od;
+        let position = od.value(0x6004, 0).unwrap_or(0);
+        let speed = od.value(0x6030, 1).unwrap_or(0) as u16 as i16;
+        let data = match pgn {
+            Pgn::EPOS => Epos { position }.emit(),
+            Pgn::ESPD => Espd { speed }.emit(),
+            Pgn::PROPRIETARY_B => ProprietaryB { position, speed }.emit(),
+            _ => return None,
+        };
+        Some(Identifier::pdu2(priority, pgn, sa)?.frame(&data))
+    }
+
+    /// 3002h.01: claim again at the address 5F0Ah.01 holds now; the table of taken addresses
+    /// is forgotten, so a lost address is contested again.
+    fn restart_claim(&mut self, now: Instant) {
+        let address = storage::pending(&self.ctx.od, CoreHook::PendingNodeId).unwrap_or(0xFE) as u8;
+        let (lo, hi) = address_range(&self.ctx.od);
+        self.ctx.node_id = address;
+        self.claim = AddressClaimer::new(name_of(&self.ctx.od), Address(address), lo, hi);
+        self.cyclic.stop();
+        self.ctx.errors.set_gate(Gate::Drop);
+        self.sdo.reset();
+        self.deferred_to = None;
+        self.claim.start_delayed(now);
+        self.device.on_claim(self.claim.state());
+        self.generation = self.generation.wrapping_add(1);
+    }
+
+    /// 3002h.02: the device restarts as after power-on: the stored parameters (or the defaults
+    /// 1011h marked) are loaded, the stored address and bit rate take effect, claiming starts
+    /// again.
+    fn restart(&mut self, now: Instant) {
+        let device = &self.device;
+        self.ctx.reload(ResetKind::Node, |e, groups| device.restores(e, groups));
+        if let Some(rate) = pending_bitrate(&self.device, &self.ctx.od) {
+            if rate != self.ctx.bitrate {
+                self.ctx.bitrate = rate;
+                self.ctx.out.push(Output::SetBitrate(rate));
+            }
+        }
+        self.device.on_reset(&mut self.ctx, ResetKind::Node, now);
+        self.sync_schedule(now);
+        self.restart_claim(now);
+    }
+}
+
+/// How the context announces an error condition on J1939: the EMCY frame from the node's
+/// address (the claimed one: the gate opens only once the claim stood).
+fn announce(_: &Od, address: u8, code: u16, register: u8) -> Option<Frame> {
+    Some(emcy_frame(code, register, Address(address)))
+}
+
+/// The EMCY frame (PGN 64616, priority 1) with `code` and `register` from `sa`.
+fn emcy_frame(code: u16, register: u8, sa: Address) -> Frame {
+    let priority = Priority::new(EMCY_PRIORITY).unwrap_or(Priority::HIGHEST);
+    let data = Emcy { code, register }.emit();
+    match Identifier::pdu2(priority, Pgn::EMCY, sa) {
+        Some(id) => id.frame(&data),
+        None => Frame::new(crate::frame::CanId::Ext(0), &data),
+    }
+}
+
+/// The bit rate the pending bit-rate entry selects, if the device has one that codes a rate.
+fn pending_bitrate<D: Device>(device: &D, od: &Od) -> Option<Bitrate> {
+    let code = storage::pending(od, CoreHook::PendingBitrate)?;
+    device.bitrate_codes().iter().find(|(c, _)| *c == code).map(|(_, b)| *b)
+}
+
+impl<D: J1939Device> Station for J1939Node<D> {
+    fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        J1939Node::on_frame(self, frame, now)
+    }
+    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        J1939Node::on_bus_event(self, event, now)
+    }
+    fn poll(&mut self, now: Instant) {
+        J1939Node::poll(self, now)
+    }
+    fn next_deadline(&self) -> Option<Instant> {
+        J1939Node::next_deadline(self)
+    }
+    fn next_output(&mut self) -> Option<Output> {
+        J1939Node::next_output(self)
+    }
+    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        J1939Node::store_done(self, result, now)
+    }
+    /// Empty: a J1939 node receives by identifier and mask ([`Station::rx_masks`]), which
+    /// exact identifiers cannot express (claims come from any source address).
+    fn rx_ids(&self) -> RxIds {
+        RxIds::new()
+    }
+    /// [`J1939Node::filters`], without repeats.
+    fn rx_masks(&self) -> RxMasks {
+        let mut masks = RxMasks::new();
+        for f in self.filters() {
+            if !masks.contains(&(f.id, f.mask)) {
+                let _ = masks.push((f.id, f.mask));
+            }
+        }
+        masks
+    }
+    fn rx_ids_generation(&self) -> u32 {
+        self.generation
+    }
+    fn context(&self) -> &Context {
+        &self.ctx
+    }
+}
+
+impl<D: J1939Device> DeviceStation for J1939Node<D> {
+    type Device = D;
+    fn device(&self) -> &D {
+        &self.device
+    }
+    fn split(&mut self) -> (&mut D, &mut Context) {
+        (&mut self.device, &mut self.ctx)
+    }
+}
