@@ -992,6 +992,8 @@ impl Rig {
         sent: &[Frame],
         stores: &[GroupMask],
     ) -> Result<(), Violation> {
+        // Nothing lost: checked first, since a lost output breaks what the checks below see.
+        check_outbox(self.node.core())?;
         // Identifiers and states.
         for f in sent {
             ensure!(before.allows(f) || after.allows(f), "sent {f:?}, not an identifier it owns in this state");
@@ -1259,8 +1261,18 @@ impl Rig {
     }
 }
 
-/// Every value of `core`'s dictionary within its type and declared limits.
+/// The node's outbox never dropped an output: the rig drains it after every call, as every
+/// shell does (D-ARCH-3), and the outbox holds the worst single call's outputs.
+pub fn check_outbox(core: &Core) -> Result<(), Violation> {
+    let dropped = core.out.dropped();
+    ensure!(dropped == 0, "the outbox dropped {dropped} outputs although it is drained after every call");
+    Ok(())
+}
+
+/// Nothing dropped from `core`'s outbox ([`check_outbox`]) and every value of its dictionary
+/// within its type and declared limits.
 pub fn check_values(core: &Core) -> Result<(), Violation> {
+    check_outbox(core)?;
     let od = &core.od;
     for (pos, e) in od.table().iter().enumerate() {
         let v = od.get(pos);

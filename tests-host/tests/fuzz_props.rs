@@ -75,6 +75,7 @@ mod checker_fails {
     use od_core::lss::Lss;
     use od_core::node::{BusEvent, Core, Output};
     use od_core::od::GroupMask;
+    use od_core::output::OUTBOX_DEPTH;
     use od_core::{CanId, Frame, Instant, NmtState};
     use tests_host::encoder::upload_request;
     use tests_host::invariants::{Action, Kind, Rig, Subject, Wrap};
@@ -88,6 +89,9 @@ mod checker_fails {
         SpuriousStore,
         NoTimeout,
         NoBootUp,
+        /// Hands the node a burst of SDO requests in one call, as a shell that does not drain
+        /// after every frame would (the outbox overflows).
+        Burst,
     }
 
     struct Faulty {
@@ -101,6 +105,11 @@ mod checker_fails {
         fn on_frame(&mut self, frame: &Frame, now: Instant) {
             self.polling = false;
             self.inner.on_frame(frame, now);
+            if self.fault == Fault::Burst && frame.id == CanId::Std(0x605) {
+                for _ in 0..OUTBOX_DEPTH {
+                    self.inner.on_frame(frame, now);
+                }
+            }
             if self.fault == Fault::ForeignFrame && frame.id == CanId::Std(0x80) {
                 self.extra.push_back(Output::Frame(Frame::std(0x123, &[1])));
             }
@@ -167,6 +176,7 @@ mod checker_fails {
             Fault::SpuriousStore => w!(Fault::SpuriousStore),
             Fault::NoTimeout => w!(Fault::NoTimeout),
             Fault::NoBootUp => w!(Fault::NoBootUp),
+            Fault::Burst => w!(Fault::Burst),
         }
     }
 
@@ -201,5 +211,7 @@ mod checker_fails {
         assert!(v.contains("not aborted"), "{v}");
         let v = violation(Fault::NoBootUp, &[BOOT]);
         assert!(v.contains("without a boot-up"), "{v}");
+        let v = violation(Fault::Burst, &[BOOT, sdo(upload_request(0x1000, 0))]);
+        assert!(v.contains("outbox dropped"), "{v}");
     }
 }
