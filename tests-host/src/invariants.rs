@@ -18,13 +18,17 @@
 //! NMT resets, PDO configuration writes, saves), so that random bytes reach deep states. The
 //! stable proptest (`tests/fuzz_props.rs`) and the cargo-fuzz targets (`fuzz/`) share it.
 //!
-//! The device kinds are listed once in [`KINDS`]; a new device (AP10T, WV58MR) joins with its
-//! [`Kind`] variant, one line in [`KINDS`] and one arm in [`Kind::boot`].
+//! The device kinds are listed once in [`KINDS`]; a new device (the WV58MR) joins with its
+//! [`Kind`] variant, one line in [`KINDS`] and one arm in [`Kind::boot`]. The AP10T is one:
+//! its keys are its own input ([`KeyedAp10t`]), and the checker knows what only it does: a
+//! frame during the bit-rate detection only proves the rate, the external heartbeat (5F09h)
+//! running out sends it to PRE-OPERATIONAL, an auto-ID write is answered at the key, and the
+//! key menu asks for its own stores.
 
 use std::collections::HashMap;
 use std::fmt;
 
-use od_core::devices::{sgh10, sgh50, wv5800m};
+use od_core::devices::{ap10t, sgh10, sgh50, wv5800m};
 use od_core::encoder::{Encoder, SensorFault};
 use od_core::lss::Lss;
 use od_core::node::{BusEvent, CanError, CanopenDevice, Core, Node, Output};
@@ -55,11 +59,25 @@ pub enum Kind {
     Wv5800m,
     /// WH5800M singleturn.
     Wh5800mSingle,
+    /// AP10T display.
+    Ap10t,
 }
 
-/// Every kind, in the order the proptest and the fuzz targets pick them.
-pub const KINDS: &[Kind] =
+/// The encoder kinds: the power-cut and bus-load scenarios (encoder objects, TPDO1 timing) run
+/// on these.
+pub const ENCODERS: &[Kind] =
     &[Kind::Sgh10, Kind::Sgh50Single, Kind::Sgh50First, Kind::Sgh50Second, Kind::Wv5800m, Kind::Wh5800mSingle];
+
+/// Every kind, in the order the proptest and the fuzz targets pick them.
+pub const KINDS: &[Kind] = &[
+    Kind::Sgh10,
+    Kind::Sgh50Single,
+    Kind::Sgh50First,
+    Kind::Sgh50Second,
+    Kind::Wv5800m,
+    Kind::Wh5800mSingle,
+    Kind::Ap10t,
+];
 
 impl Kind {
     /// The kind's name in reports.
@@ -71,6 +89,7 @@ impl Kind {
             Kind::Sgh50Second => "SGH50 redundant #2",
             Kind::Wv5800m => "WV5800M",
             Kind::Wh5800mSingle => "WH5800M-1",
+            Kind::Ap10t => "AP10T",
         }
     }
 
@@ -92,7 +111,19 @@ impl Kind {
             }
             Kind::Wv5800m => Box::new(Node::boot(Kind::wv(Model::Wv, Turns::Multi12), loaded)),
             Kind::Wh5800mSingle => Box::new(Node::boot(Kind::wv(Model::Wh, Turns::Single), loaded)),
+            Kind::Ap10t => Box::new(KeyedAp10t(Node::boot(ap10t::Ap10t::new(), loaded))),
         }
+    }
+
+    /// Does the kind serve LSS? (The AP10T has none: `CanopenDevice::has_lss`.)
+    pub fn has_lss(self) -> bool {
+        self != Kind::Ap10t
+    }
+
+    /// Does the kind serve segmented SDO transfers? (The AP10T's server is expedited only:
+    /// `CanopenDevice::sdo_expedited_only`.)
+    pub fn segmented_sdo(self) -> bool {
+        self != Kind::Ap10t
     }
 
     /// The kind's dictionary.
@@ -124,6 +155,10 @@ pub trait Subject {
     fn lss(&self) -> &Lss;
     /// [`Node::nmt_state`].
     fn nmt_state(&self) -> NmtState;
+    /// [`Node::listen_only`]: detecting the bit rate, the node only listens.
+    fn listen_only(&self) -> bool {
+        false
+    }
 }
 
 impl<E: Encoder + CanopenDevice> Subject for Node<E> {
@@ -157,6 +192,53 @@ impl<E: Encoder + CanopenDevice> Subject for Node<E> {
     }
     fn nmt_state(&self) -> NmtState {
         Node::nmt_state(self)
+    }
+}
+
+/// An AP10T node. Its own input is its keys: a "sample" `raw` presses (bit 2 clear) or
+/// releases (bit 2 set) key `raw & 3`; a fault releases every key.
+pub struct KeyedAp10t(pub Node<ap10t::Ap10t>);
+
+impl Subject for KeyedAp10t {
+    fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        self.0.on_frame(frame, now)
+    }
+    fn poll(&mut self, now: Instant) {
+        self.0.poll(now)
+    }
+    fn next_deadline(&self) -> Option<Instant> {
+        self.0.next_deadline()
+    }
+    fn next_output(&mut self) -> Option<Output> {
+        self.0.next_output()
+    }
+    fn store_done(&mut self, ok: bool, now: Instant) {
+        self.0.store_done(if ok { Ok(()) } else { Err(()) }, now)
+    }
+    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.0.on_bus_event(event, now)
+    }
+    fn sample(&mut self, raw: Result<u32, SensorFault>, now: Instant) {
+        use ap10t::Key;
+        const KEYS: [Key; 4] = [Key::Front, Key::Left, Key::Star, Key::Up];
+        let (device, core) = self.0.split();
+        match raw {
+            Ok(r) if r & 4 == 0 => device.press(core, KEYS[r as usize & 3], now),
+            Ok(r) => device.release(core, KEYS[r as usize & 3], now),
+            Err(_) => KEYS.iter().for_each(|&k| device.release(core, k, now)),
+        }
+    }
+    fn core(&self) -> &Core {
+        self.0.core()
+    }
+    fn lss(&self) -> &Lss {
+        self.0.lss()
+    }
+    fn nmt_state(&self) -> NmtState {
+        self.0.nmt_state()
+    }
+    fn listen_only(&self) -> bool {
+        self.0.listen_only()
     }
 }
 
@@ -618,6 +700,8 @@ enum SdoModel {
 enum StoreOrigin {
     Sdo,
     Lss,
+    /// The AP10T's key menu (node-ID, baud rate, factory reset, auto-ID adopted).
+    Panel,
 }
 
 /// A stored value as the checker expects the next power-on to find it.
@@ -642,6 +726,12 @@ pub struct Rig {
     download: Vec<u8>,
     deferred: bool,
     expected: HashMap<(u16, u8), Expected>,
+    /// The node detected the bit rate (listened only) before the current input.
+    listening: bool,
+    /// An AP10T auto-ID write (5F0Ah.02) waits for the key; its answer comes later.
+    auto_id: bool,
+    /// Keys were pressed on the AP10T since its power-on (a menu factory reset may follow).
+    keyed: bool,
     /// Statistics.
     pub stats: Stats,
 }
@@ -762,6 +852,9 @@ impl Rig {
             download: Vec::new(),
             deferred: false,
             expected: HashMap::new(),
+            listening: false,
+            auto_id: false,
+            keyed: false,
             stats: Stats::default(),
         };
         rig.expect_current(GroupMask(GroupMask::ALL.0 | GroupMask::LSS.0));
@@ -916,6 +1009,8 @@ impl Rig {
         self.stores.clear();
         self.sdo = SdoModel::Idle;
         self.deferred = false;
+        self.auto_id = false;
+        self.keyed = false;
         let core = self.node.core();
         for (pos, e) in core.od.table().iter().enumerate() {
             if let Some(x) = self.expected.get(&(e.index, e.sub)) {
@@ -947,6 +1042,11 @@ impl Rig {
         let before = Owned::of(&*self.node);
         let lss_before = self.node.lss().state();
         let switching_before = self.node.lss().switching();
+        // While it detects the bit rate, a node takes any frame only as proof of the rate: it
+        // ends the detection (the boot-up follows at the next poll) and is no service, so it
+        // is checked as an input that serves nothing (a receive overrun).
+        let listening = self.node.listen_only();
+        self.listening = listening;
         let now = self.now;
         match input {
             Input::Frame(f) => self.node.on_frame(&f, now),
@@ -960,7 +1060,10 @@ impl Rig {
                 self.node.store_done(ok, now);
             }
             Input::Bus(e) => self.node.on_bus_event(e, now),
-            Input::Sample(raw) => self.node.sample(raw, now),
+            Input::Sample(raw) => {
+                self.keyed |= self.kind == Kind::Ap10t;
+                self.node.sample(raw, now)
+            }
         }
         let mut sent = Vec::new();
         let mut stores = Vec::new();
@@ -976,7 +1079,11 @@ impl Rig {
         if self.node.lss().state() == od_core::lss::LssState::Configuration {
             self.stats.lss_configuration += 1;
         }
-        self.check(&input, &before, &after, lss_before, switching_before, &sent, &stores)
+        let seen = match input {
+            Input::Frame(_) if listening => Input::Bus(BusEvent::RxOverrun),
+            other => other,
+        };
+        self.check(&seen, &before, &after, lss_before, switching_before, &sent, &stores)
             .map_err(|v| Violation(format!("at {} us, {input:?}: {v}; sent {sent:02X?}", now.as_micros())))?;
         Ok(sent)
     }
@@ -1039,14 +1146,27 @@ impl Rig {
                 let booted = after.configured
                     && after.nmt == NmtState::PreOperational
                     && sent.iter().any(|f| f.id == CanId::Std(0x700 + after.node_id as u16) && f.payload() == [0]);
+                // The AP10T's external heartbeat (5F09h.01 ms, not 0) ran out in OPERATIONAL:
+                // PRE-OPERATIONAL (D-AP-19).
+                let heartbeat_lost = self.kind == Kind::Ap10t
+                    && before.nmt == NmtState::Operational
+                    && after.nmt == NmtState::PreOperational
+                    && self.node.core().od.value(0x5F09, 1).is_some_and(|ms| ms != 0);
                 ensure!(
-                    after.nmt == before.nmt || booted || (switching_before && after.nmt == NmtState::Initialising),
+                    after.nmt == before.nmt
+                        || booted
+                        || heartbeat_lost
+                        || (switching_before && after.nmt == NmtState::Initialising),
                     "poll moved NMT {:?} -> {:?} without a boot-up",
                     before.nmt,
                     after.nmt
                 );
                 ensure!(
-                    !(after.configured && after.nmt == NmtState::Initialising && !self.node.lss().switching()),
+                    !(after.configured
+                        && after.nmt == NmtState::Initialising
+                        && !self.node.lss().switching()
+                        && !self.listening
+                        && !self.node.listen_only()),
                     "still initialising after a poll"
                 );
                 if let Some(t) = self.node.next_deadline() {
@@ -1087,6 +1207,31 @@ impl Rig {
 
     /// The request behind a store of `mask` at `input`, or the violation.
     fn store_origin(
+        &self,
+        input: &Input,
+        lss_before: od_core::lss::LssState,
+        mask: GroupMask,
+    ) -> Result<StoreOrigin, Violation> {
+        let bus = self.bus_store_origin(input, lss_before, mask);
+        if bus.is_ok() {
+            return bus;
+        }
+        // The AP10T's menu keeps a node-ID or baud rate at once; a menu factory reset stores
+        // everything at the reset that follows the key (manual Table 3, D-AP-16).
+        if self.kind == Kind::Ap10t {
+            match input {
+                Input::Sample(_) if mask == GroupMask::NODE_ID || mask == GroupMask::BITRATE => {
+                    return Ok(StoreOrigin::Panel)
+                }
+                Input::Poll | Input::Frame(_) if mask == GroupMask::ALL && self.keyed => return Ok(StoreOrigin::Panel),
+                _ => {}
+            }
+        }
+        bus
+    }
+
+    /// A store asked for by a request on the bus: a 1010h save or LSS store configuration.
+    fn bus_store_origin(
         &self,
         input: &Input,
         lss_before: od_core::lss::LssState,
@@ -1154,6 +1299,17 @@ impl Rig {
                 let req = f.data;
                 let ccs = req[0] >> 5;
                 let Some(a) = answer else {
+                    // The AP10T's auto-ID: a write to 5F0Ah.02 at the factory node-ID 7Dh is
+                    // answered when the key is pressed (manual 4.6.2).
+                    if self.kind == Kind::Ap10t
+                        && before.node_id == 0x7D
+                        && req[0] & 0xE3 == 0x23
+                        && req[1..4] == [0x0A, 0x5F, 0x02]
+                    {
+                        self.auto_id = true;
+                        self.sdo = SdoModel::Idle;
+                        return Ok(());
+                    }
                     // No answer: a client abort, or a save whose answer waits for the store.
                     ensure!(ccs == 4 || stored, "SDO request {req:02X?} unanswered");
                     if stored {
@@ -1200,6 +1356,11 @@ impl Rig {
                 } else {
                     self.sdo = SdoModel::Idle;
                 }
+            }
+            Input::Poll | Input::Sample(_) if self.auto_id && answer.is_some() => {
+                let a = answer.unwrap_or_default();
+                ensure!(a == [0x60, 0x0A, 0x5F, 0x02, 0, 0, 0, 0], "answer {a:02X?} to the auto-ID write");
+                self.auto_id = false;
             }
             Input::Poll => {
                 if let Some(a) = answer {
@@ -1248,6 +1409,7 @@ impl Rig {
         if nmt_reset || reinit {
             self.sdo = SdoModel::Idle;
             self.deferred = false;
+            self.auto_id = false;
         }
         if let Input::StoreDone { origin: StoreOrigin::Sdo, .. } = input {
             self.deferred = false;

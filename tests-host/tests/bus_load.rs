@@ -17,7 +17,7 @@ use std::collections::VecDeque;
 use od_core::node::Output;
 use od_core::{CanId, Frame, Instant};
 use tests_host::encoder::{download_request, upload_request};
-use tests_host::invariants::{boot_with_id, Kind, Subject, KINDS};
+use tests_host::invariants::{boot_with_id, Kind, Subject, ENCODERS};
 
 const ID: u16 = 10;
 const SECONDS: u64 = 2;
@@ -272,7 +272,7 @@ fn node_rx_ids(kind: Kind) -> Vec<CanId> {
 
 #[test]
 fn every_kind_holds_full_load_at_1_mbit() {
-    for &kind in KINDS {
+    for &kind in ENCODERS {
         let f = run(kind);
         eprintln!(
             "{}: {} frames/s on the bus ({} the node's), {} SDO answered (worst {} us), heartbeat +-{} us \

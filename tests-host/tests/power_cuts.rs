@@ -14,7 +14,7 @@ use od_core::storage::{identity, Loaded, ParamFlash};
 use od_core::{Frame, Instant};
 use tests_host::encoder::download_request;
 use tests_host::flash::{FlashError, RamFlash};
-use tests_host::invariants::{Kind, Subject, KINDS, REGION};
+use tests_host::invariants::{Kind, Subject, ENCODERS, REGION};
 
 /// How a cut leaves the operation it interrupts.
 #[derive(Clone, Copy, Debug)]
@@ -207,7 +207,7 @@ fn every_store_path_survives_a_cut_at_every_operation() {
     let mut report = Vec::new();
     for path in PATHS {
         let mut total = 0;
-        for &kind in KINDS {
+        for &kind in ENCODERS {
             let mut flash = ParamFlash::new(RamFlash::new(REGION.pages as usize), REGION, identity(kind.table()));
             // From a blank flash and then around the ring: each save lands on the next page.
             for n in 0..=REGION.pages {
