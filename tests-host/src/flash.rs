@@ -50,6 +50,10 @@ pub struct Cut {
     /// `None`: the operation does not happen. `Some(m)`: it is torn: a write programs only the
     /// bits of the new value outside `m`; an erase erases only the last `m % PAGE` bytes.
     torn: Option<u16>,
+    /// `Some(v)`: the cut operation leaves cells that read back as any value: a write leaves
+    /// the half-word reading `v`, an erase leaves every byte of the page a value derived from
+    /// `v` (set by [`RamFlash::cut_garbage`]).
+    garbage: Option<u16>,
 }
 
 /// Flash in RAM with the STM32F1 geometry.
@@ -101,7 +105,19 @@ impl RamFlash {
     /// leaving it undone (`torn = None`) or half done; every later operation fails until
     /// [`RamFlash::power_on`].
     pub fn cut_after(&mut self, k: u64, torn: Option<u16>) {
-        self.cut = Some(Cut { at: self.ops + k, torn });
+        self.cut = Some(Cut { at: self.ops + k, torn, garbage: None });
+    }
+
+    /// Cuts the power in the `k`-th erase or half-word write from now, leaving the cells it
+    /// touched reading back as any value: the half-word reads `value`; an erased page reads
+    /// bytes derived from `value` (none of them necessarily FFh or the old content).
+    pub fn cut_garbage(&mut self, k: u64, value: u16) {
+        self.cut = Some(Cut { at: self.ops + k, torn: None, garbage: Some(value) });
+    }
+
+    /// The garbage of a cut, if the cut is that kind.
+    fn garbage(&self) -> Option<u16> {
+        self.cut.and_then(|c| c.garbage)
     }
 
     /// The power comes back (a power cycle's second half); a planned cut not reached is dropped.
@@ -187,6 +203,13 @@ impl NorFlash for RamFlash {
                     self.mem[page..page + PAGE].fill(0xFF);
                     self.erases[page / PAGE] += 1;
                 }
+                Some(_) if self.garbage().is_some() => {
+                    let [a, b] = self.garbage().unwrap_or(0).to_le_bytes();
+                    for (i, x) in self.mem[page..page + PAGE].iter_mut().enumerate() {
+                        *x = if i % 2 == 0 { a } else { b }.rotate_left(i as u32 % 8) ^ (i / 2) as u8;
+                    }
+                    return Err(FlashError::PowerLost);
+                }
                 Some(torn) => {
                     let n = torn.map_or(0, |m| m as usize % PAGE);
                     self.mem[page + PAGE - n..page + PAGE].fill(0xFF);
@@ -208,6 +231,7 @@ impl NorFlash for RamFlash {
                 return Err(FlashError::NotErased);
             }
             let value = match cut {
+                Some(_) if self.garbage().is_some() => self.garbage().unwrap_or(0),
                 None => new,
                 Some(None) => old,
                 Some(Some(mask)) => old & (new | mask),
@@ -344,6 +368,19 @@ mod tests {
         f.cut_after(0, Some(1000));
         assert_eq!(f.erase(0, 1024), Err(FlashError::PowerLost));
         assert_eq!(&f.bytes()[..2], &[0x00, 0xFF], "the start is not erased yet");
+    }
+
+    #[test]
+    fn a_cut_can_leave_any_value() {
+        let mut f = RamFlash::new(1);
+        f.cut_garbage(1, 0x1234);
+        assert_eq!(f.write(0, &[0, 0, 0, 0]), Err(FlashError::PowerLost));
+        assert_eq!(&f.bytes()[..4], &[0, 0, 0x34, 0x12], "the cut half-word reads anything");
+        f.power_on();
+        f.cut_garbage(0, 0xA5C3);
+        assert_eq!(f.erase(0, 1024), Err(FlashError::PowerLost));
+        assert!(f.bytes().iter().any(|&b| b != 0xFF), "an interrupted erase leaves garbage");
+        assert!(f.bytes()[..4] != [0, 0, 0x34, 0x12]);
     }
 
     #[test]

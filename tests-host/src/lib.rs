@@ -7,6 +7,7 @@ pub mod bus;
 pub mod eds;
 pub mod encoder;
 pub mod flash;
+pub mod invariants;
 pub mod j1939;
 pub mod segment;
 pub mod sim;
