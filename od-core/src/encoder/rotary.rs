@@ -31,6 +31,7 @@
 //! The decisions are in `docs/decisions.md`, "WV5800M".
 
 use crate::encoder::{shortest_delta, Window};
+use crate::od::{Access::*, DataType::*, Entry, Group, Hook};
 
 /// Physical measuring steps per revolution (6501h).
 pub const PHYSICAL_STEPS: u32 = 16_384;
@@ -50,6 +51,60 @@ pub const MAX_SPEED_INC_PER_S: u64 = 1_638_400;
 /// The raw range `R` of an encoder with `revolutions` distinguishable revolutions.
 pub const fn raw_range(revolutions: u32) -> u32 {
     PHYSICAL_STEPS * revolutions
+}
+
+/// How many entries [`status_rows`] declares.
+pub const STATUS_ROWS: usize = 26;
+
+/// The CiA 406 rotary encoder's work-area, status and identification rows (6400h-650Eh), as the
+/// WV5800M and the WV58MR declare them alike for `revolutions` turns: the work-area limits
+/// (`0 ..= APU x revolutions - 1`, checked further by the device hook `in_range`), 6500h-6509h,
+/// 650Ah with the raw range, the factory serial 650Bh, 650Dh and 650Eh. 6507h is the printed
+/// 01000302h (WV58MR A8).
+pub const fn status_rows(revolutions: u32, in_range: Hook) -> [Entry; STATUS_ROWS] {
+    let n = revolutions as i64;
+    let r = PHYSICAL_STEPS as i64 * n;
+    let max_pos = MAX_APU as i64 * n - 1;
+    [
+        Entry::array(0x6400, "Area state register", 2, Ro),
+        Entry::member(0x6400, 1, "Work area state channel 1", Unsigned8, Ro, 0),
+        Entry::member(0x6400, 2, "Work area state channel 2", Unsigned8, Ro, 0),
+        Entry::array(0x6401, "Work area low limit", 2, Ro),
+        Entry::member(0x6401, 1, "Work area low limit channel 1", Integer32, Rw, 0)
+            .range(0, max_pos)
+            .group(Group::App)
+            .hook(in_range),
+        Entry::member(0x6401, 2, "Work area low limit channel 2", Integer32, Rw, 0)
+            .range(0, max_pos)
+            .group(Group::App)
+            .hook(in_range),
+        Entry::array(0x6402, "Work area high limit", 2, Ro),
+        Entry::member(0x6402, 1, "Work area high limit channel 1", Integer32, Rw, 0)
+            .range(0, max_pos)
+            .group(Group::App)
+            .hook(in_range),
+        Entry::member(0x6402, 2, "Work area high limit channel 2", Integer32, Rw, 0)
+            .range(0, max_pos)
+            .group(Group::App)
+            .hook(in_range),
+        Entry::var(0x6500, "Operating status", Unsigned16, Ro, SCALING_BIT as u32),
+        Entry::var(0x6501, "Single-turn resolution", Unsigned32, Ro, PHYSICAL_STEPS),
+        Entry::var(0x6502, "Number of distinguishable revolutions", Unsigned16, Ro, n as u32),
+        Entry::var(0x6503, "Alarms", Unsigned16, Ro, 0),
+        Entry::var(0x6504, "Supported alarms", Unsigned16, Ro, 0x3001),
+        Entry::var(0x6505, "Warnings", Unsigned16, Ro, 0),
+        Entry::var(0x6506, "Supported warnings", Unsigned16, Ro, 0x0001),
+        Entry::var(0x6507, "Profile and software version", Unsigned32, Ro, 0x0100_0302),
+        Entry::var(0x6508, "Operating time", Unsigned32, Ro, 0xFFFF_FFFF),
+        Entry::var(0x6509, "Offset value", Integer32, Ro, 0).group(Group::App),
+        Entry::array(0x650A, "Module identification", 3, Ro),
+        Entry::member(0x650A, 1, "Manufacturer offset value", Integer32, Ro, 0),
+        Entry::member(0x650A, 2, "Manufacturer minimum position value", Integer32, Ro, 0),
+        Entry::member(0x650A, 3, "Manufacturer maximum position value", Integer32, Ro, (r - 1) as u32),
+        Entry::var(0x650B, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
+        Entry::var(0x650D, "Absolute accuracy", Unsigned8, Ro, 0x08),
+        Entry::var(0x650E, "Device functionality", Unsigned32, Ro, 0x0000_0002),
+    ]
 }
 
 /// Everything the position depends on besides the raw count, as the dictionary holds it.

@@ -10,7 +10,7 @@
 
 use crate::devices::comm::{self, Identity, NodeIdAndBitrate, Profile, Serial};
 use crate::devices::wv5800m::Turns;
-use crate::encoder::rotary::{DIRECTION_BIT, MAX_APU, PHYSICAL_STEPS, SCALING_BIT};
+use crate::encoder::rotary::{self, DIRECTION_BIT, MAX_APU, PHYSICAL_STEPS, SCALING_BIT};
 use crate::od::{Access::*, DataType::*, Entry, Group, Hook};
 
 /// Device-specific write hooks of the WV58MR (`Hook::Device(n)`).
@@ -185,46 +185,8 @@ pub const fn table(turns: Turns) -> [Entry; ENTRIES] {
                 .range(0, 0xFFFF)
                 .group(APP)
                 .hook(dev(hooks::CYCLE_TIMER)),
-            Entry::array(0x6400, "Area state register", 2, Ro),
-            Entry::member(0x6400, 1, "Work area state channel 1", Unsigned8, Ro, 0),
-            Entry::member(0x6400, 2, "Work area state channel 2", Unsigned8, Ro, 0),
-            Entry::array(0x6401, "Work area low limit", 2, Ro),
-            Entry::member(0x6401, 1, "Work area low limit channel 1", Integer32, Rw, 0)
-                .range(0, max_pos)
-                .group(APP)
-                .hook(dev(hooks::IN_RANGE)),
-            Entry::member(0x6401, 2, "Work area low limit channel 2", Integer32, Rw, 0)
-                .range(0, max_pos)
-                .group(APP)
-                .hook(dev(hooks::IN_RANGE)),
-            Entry::array(0x6402, "Work area high limit", 2, Ro),
-            Entry::member(0x6402, 1, "Work area high limit channel 1", Integer32, Rw, 0)
-                .range(0, max_pos)
-                .group(APP)
-                .hook(dev(hooks::IN_RANGE)),
-            Entry::member(0x6402, 2, "Work area high limit channel 2", Integer32, Rw, 0)
-                .range(0, max_pos)
-                .group(APP)
-                .hook(dev(hooks::IN_RANGE)),
-            Entry::var(0x6500, "Operating status", Unsigned16, Ro, SCALING_BIT as u32),
-            Entry::var(0x6501, "Single-turn resolution", Unsigned32, Ro, PHYSICAL_STEPS),
-            Entry::var(0x6502, "Number of distinguishable revolutions", Unsigned16, Ro, n as u32),
-            Entry::var(0x6503, "Alarms", Unsigned16, Ro, 0),
-            Entry::var(0x6504, "Supported alarms", Unsigned16, Ro, 0x3001),
-            Entry::var(0x6505, "Warnings", Unsigned16, Ro, 0),
-            Entry::var(0x6506, "Supported warnings", Unsigned16, Ro, 0x0001),
-            // A8: the printed default.
-            Entry::var(0x6507, "Profile and software version", Unsigned32, Ro, 0x0100_0302),
-            Entry::var(0x6508, "Operating time", Unsigned32, Ro, 0xFFFF_FFFF),
-            Entry::var(0x6509, "Offset value", Integer32, Ro, 0).group(APP),
-            Entry::array(0x650A, "Module identification", 3, Ro),
-            Entry::member(0x650A, 1, "Manufacturer offset value", Integer32, Ro, 0),
-            Entry::member(0x650A, 2, "Manufacturer minimum position value", Integer32, Ro, 0),
-            Entry::member(0x650A, 3, "Manufacturer maximum position value", Integer32, Ro, (r - 1) as u32),
-            Entry::var(0x650B, "Serial number", Unsigned32, Ro, 0).group(Group::Factory),
-            Entry::var(0x650D, "Absolute accuracy", Unsigned8, Ro, 0x08),
-            Entry::var(0x650E, "Device functionality", Unsigned32, Ro, 0x0000_0002),
         ],
+        &rotary::status_rows(turns.revolutions(), dev(hooks::IN_RANGE)),
     ])
 }
 
