@@ -8,79 +8,19 @@ screen read: the acknowledgement of a set point and the Auto-ID end to end.
 The simulator binary is $SIM_BIN, else target/debug/sim. Run: pytest tests-host/py/test_ap10t.py
 """
 
-import os
 import pathlib
 import socket
-import subprocess
 import threading
 import time
 
-import can
 import canopen
 import pytest
+
+from test_sim import Sim
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 EDS = str(ROOT / "eds" / "AP10T.eds")
 NODE = 0x7D  # factory node-ID
-
-_built = []
-
-
-def sim_binary():
-    env = os.environ.get("SIM_BIN")
-    if env:
-        return env
-    if not _built:
-        subprocess.run(["cargo", "build", "-q", "-p", "tests-host", "--bin", "sim"], cwd=ROOT, check=True)
-        _built.append(True)
-    return str(ROOT / "target" / "debug" / "sim")
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-class Sim:
-    def __init__(self, *args):
-        self.args = list(args)
-        self.port = free_port()
-        self.control_port = free_port()
-        self.start()
-
-    def start(self):
-        cmd = [
-            sim_binary(),
-            "--quiet",
-            "--listen",
-            f"127.0.0.1:{self.port}",
-            "--control",
-            f"127.0.0.1:{self.control_port}",
-            *self.args,
-        ]
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        deadline = time.time() + 10
-        while True:
-            try:
-                socket.create_connection(("127.0.0.1", self.port), timeout=0.2).close()
-                return
-            except OSError:
-                if self.proc.poll() is not None:
-                    raise RuntimeError(f"sim exited: {self.proc.stderr.read().decode()}")
-                if time.time() > deadline:
-                    raise RuntimeError("sim does not listen")
-                time.sleep(0.05)
-
-    def stop(self):
-        self.proc.kill()
-        self.proc.wait()
-        self.proc.stderr.close()
-
-    def network(self):
-        net = canopen.Network()
-        net.connect(interface="socketcand", channel="can0", host="127.0.0.1", port=self.port)
-        return net
 
 
 class Control:
@@ -134,7 +74,7 @@ def state_dir(tmp_path):
 
 @pytest.fixture
 def sim(state_dir):
-    s = Sim("--device", "ap10t", "--bitrate", "can0=250", "--state-dir", state_dir)
+    s = Sim("--device", "ap10t", "--bitrate", "can0=250", "--state-dir", state_dir, control=True)
     yield s
     s.stop()
 

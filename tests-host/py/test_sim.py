@@ -52,16 +52,21 @@ def free_port():
 
 
 class Sim:
-    """A running simulator with its arguments; `restart()` is a power cycle of every device."""
+    """A running simulator with its arguments; `restart()` is a power cycle of every device.
+    With `control=True` it also serves its control port on `control_port`."""
 
-    def __init__(self, *args):
+    def __init__(self, *args, control=False):
         self.args = list(args)
         self.port = free_port()
+        self.control_port = free_port() if control else None
         self.proc = None
         self.start()
 
     def start(self):
-        cmd = [sim_binary(), "--quiet", "--listen", f"127.0.0.1:{self.port}", *self.args]
+        cmd = [sim_binary(), "--quiet", "--listen", f"127.0.0.1:{self.port}"]
+        if self.control_port is not None:
+            cmd += ["--control", f"127.0.0.1:{self.control_port}"]
+        cmd += self.args
         self.proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         deadline = time.time() + 10
         while True:
