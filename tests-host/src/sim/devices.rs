@@ -10,9 +10,10 @@ use od_core::encoder::rotary;
 use od_core::encoder::{program_serial, Encoder};
 use od_core::lss::Lss;
 use od_core::nmt::NmtState;
-use od_core::node::{BusEvent, CanopenDevice, Context, Core, Node, Output, RxIds};
+use od_core::node::{BusEvent, CanopenDevice, Context, Node, Output, RxIds};
 use od_core::od::{CoreHook, Entry, Hook};
 use od_core::storage::{identity, Image, Loaded, ParamFlash, Record, Region};
+use od_core::DeviceStation;
 use od_core::{Frame, Instant};
 
 use super::options::{DeviceSpec, Kind, Motion, UNCONFIGURED};
@@ -22,36 +23,56 @@ use crate::segment::{Boot, NodeFlash, Station};
 /// The parameter pages each device reserves: four 1 KiB pages, as `memory.x` gives the firmware.
 pub const REGION: Region = Region { offset: 0, pages: 4 };
 
-/// An encoder node with its simulated sensor: the sensor is sampled at the device's period.
-pub struct Sensed<E: Encoder + CanopenDevice> {
-    node: Node<E>,
+/// An encoder node, CANopen or J1939, with its simulated sensor: the sensor is sampled at the
+/// device's period.
+pub struct Sensed<N: DeviceStation> {
+    node: N,
     /// What the device shows (LEDs, screen), for the live view.
-    panel: Option<Panel<E>>,
+    panel: Option<Panel<N>>,
     motion: Motion,
     /// The raw value's range (0..=max).
     max: u32,
     next_sample: Instant,
 }
 
-impl<E: Encoder + CanopenDevice> Sensed<E> {
+impl<N: DeviceStation> Sensed<N>
+where
+    N::Device: Encoder,
+{
     /// `node` whose sensor moves as `motion` within 0..=`max`.
-    pub fn new(node: Node<E>, motion: Motion, max: u32) -> Sensed<E> {
+    pub fn new(node: N, motion: Motion, max: u32) -> Sensed<N> {
         Sensed { node, panel: None, motion, max, next_sample: Instant::ZERO }
     }
 
-    /// Shows what `panel` makes of the device in the live view.
-    pub fn with_panel(mut self, panel: Panel<E>) -> Sensed<E> {
+    /// Shows what `panel` makes of the node in the live view.
+    pub fn with_panel(mut self, panel: Panel<N>) -> Sensed<N> {
         self.panel = Some(panel);
         self
     }
+
+    /// What the node shows, by its panel.
+    pub(crate) fn panel_text(&self) -> Option<String> {
+        self.panel.map(|p| p(&self.node))
+    }
+
+    /// Holds the sensor at `raw` (the control port's `position`).
+    pub(crate) fn hold(&mut self, raw: u32) -> Result<(), String> {
+        if raw > self.max {
+            return Err(format!("{raw} is beyond the sensor's range 0..={}", self.max));
+        }
+        self.motion = Motion::Fixed(raw);
+        // Sampled at the next turn, not at the next point of the device's grid.
+        self.next_sample = Instant::ZERO;
+        Ok(())
+    }
 }
 
-/// What a device shows its user, as text.
-pub type Panel<E> = fn(&E, &Core) -> String;
+/// What a node shows its user, as text.
+pub type Panel<N> = fn(&N) -> String;
 
 /// The WV5800M's three LEDs (CiA 303-3 green and red, yellow over-speed).
-fn wv5800m_leds(d: &wv5800m::Wv5800m, _: &Core) -> String {
-    let l = d.leds();
+fn wv5800m_leds(node: &Node<wv5800m::Wv5800m>) -> String {
+    let l = node.device().leds();
     format!("LEDs green={:?} red={:?} yellow={:?}", l.green, l.red, l.yellow)
 }
 
@@ -65,15 +86,18 @@ pub fn raw_at(motion: Motion, max: u32, t: f64) -> u32 {
     v.clamp(0.0, max as f64) as u32
 }
 
-impl<E: Encoder + CanopenDevice> od_core::Station for Sensed<E> {
+impl<N: DeviceStation> od_core::Station for Sensed<N>
+where
+    N::Device: Encoder,
+{
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
         self.node.on_frame(frame, now)
     }
     fn poll(&mut self, now: Instant) {
         if now >= self.next_sample {
             let raw = raw_at(self.motion, self.max, now.as_micros() as f64 / 1e6);
-            let (dev, core) = self.node.split();
-            dev.on_sample(core, Ok(raw), now);
+            let (dev, ctx) = self.node.split();
+            dev.on_sample(ctx, Ok(raw), now);
             let period = u64::from(self.node.device().sample_period_us().max(1));
             // The next sample on the device's grid; samples a late loop missed are skipped.
             self.next_sample = Instant::from_micros((now.as_micros() / period + 1) * period);
@@ -97,15 +121,21 @@ impl<E: Encoder + CanopenDevice> od_core::Station for Sensed<E> {
     fn rx_ids(&self) -> RxIds {
         self.node.rx_ids()
     }
+    fn rx_masks(&self) -> od_core::shell::RxMasks {
+        self.node.rx_masks()
+    }
     fn rx_ids_generation(&self) -> u32 {
         self.node.rx_ids_generation()
     }
     fn context(&self) -> &Context {
         self.node.context()
     }
+    fn listen_only(&self) -> bool {
+        self.node.listen_only()
+    }
 }
 
-impl<E: Encoder + CanopenDevice> Station for Sensed<E> {
+impl<E: Encoder + CanopenDevice> Station for Sensed<Node<E>> {
     fn nmt(&self) -> Option<NmtState> {
         Some(self.node.nmt_state())
     }
@@ -113,16 +143,10 @@ impl<E: Encoder + CanopenDevice> Station for Sensed<E> {
         Some(self.node.lss())
     }
     fn panel(&self) -> Option<String> {
-        self.panel.map(|p| p(self.node.device(), self.node.core()))
+        self.panel_text()
     }
     fn set_sensor(&mut self, raw: u32) -> Result<(), String> {
-        if raw > self.max {
-            return Err(format!("{raw} is beyond the sensor's range 0..={}", self.max));
-        }
-        self.motion = Motion::Fixed(raw);
-        // Sampled at the next turn, not at the next point of the device's grid.
-        self.next_sample = Instant::ZERO;
-        Ok(())
+        self.hold(raw)
     }
 }
 
@@ -278,7 +302,7 @@ fn encoder_boot<E: Encoder + CanopenDevice + Clone + 'static>(
     device: E,
     motion: Motion,
     max: u32,
-    panel: Option<Panel<E>>,
+    panel: Option<Panel<Node<E>>>,
     uid: [u8; 12],
 ) -> Boot {
     Box::new(move |loaded: &Loaded| {
@@ -374,7 +398,7 @@ fn plan(spec: &DeviceSpec, position: usize) -> Result<Vec<Channel>, String> {
             let boot = move || -> Boot {
                 Box::new(move |loaded: &Loaded| {
                     let node = od_core::j1939::node::J1939Node::boot(wv58mr::Wv58mr::new(turns), loaded);
-                    Box::new(super::j1939::SensedJ1939::new(node, motion, max))
+                    Box::new(Sensed::new(node, motion, max).with_panel(super::j1939::leds))
                 })
             };
             let one = |label: &str, suffix| Channel {

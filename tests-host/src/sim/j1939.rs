@@ -3,88 +3,29 @@
 
 use od_core::encoder::Encoder;
 use od_core::j1939::node::{J1939Device, J1939Node};
-use od_core::node::{BusEvent, Context, Output, RxIds};
 use od_core::wire::j1939::{AckControl, CamRequest, CamResponse, Message, Payload};
-use od_core::{Frame, Instant};
+use od_core::Frame;
 
 use super::decode::Known;
-use super::devices::raw_at;
-use super::options::Motion;
+use super::devices::Sensed;
 use crate::segment::Station;
 
-/// A J1939 encoder node with its simulated sensor.
-pub struct SensedJ1939<E: Encoder + J1939Device> {
-    node: J1939Node<E>,
-    motion: Motion,
-    max: u32,
-    next_sample: Instant,
+/// A J1939 encoder channel's LEDs and claimed address, for the live view.
+pub fn leds<E: Encoder + J1939Device>(node: &J1939Node<E>) -> String {
+    let l = node.leds();
+    let at = match node.source_address() {
+        Some(a) => format!("SA {:02X}h", a.0),
+        None => "claiming".into(),
+    };
+    format!("LEDs green={:?} red={:?} yellow={:?} ({at})", l.green, l.red, l.yellow)
 }
 
-impl<E: Encoder + J1939Device> SensedJ1939<E> {
-    /// `node` whose sensor moves as `motion` within 0..=`max`.
-    pub fn new(node: J1939Node<E>, motion: Motion, max: u32) -> SensedJ1939<E> {
-        SensedJ1939 { node, motion, max, next_sample: Instant::ZERO }
-    }
-}
-
-impl<E: Encoder + J1939Device> od_core::Station for SensedJ1939<E> {
-    fn on_frame(&mut self, frame: &Frame, now: Instant) {
-        self.node.on_frame(frame, now)
-    }
-    fn poll(&mut self, now: Instant) {
-        if now >= self.next_sample {
-            let raw = raw_at(self.motion, self.max, now.as_micros() as f64 / 1e6);
-            let (dev, ctx) = od_core::DeviceStation::split(&mut self.node);
-            dev.on_sample(ctx, Ok(raw), now);
-            let period = u64::from(self.node.device().sample_period_us().max(1));
-            self.next_sample = Instant::from_micros((now.as_micros() / period + 1) * period);
-        }
-        if self.node.next_deadline().is_some_and(|t| t <= now) {
-            self.node.poll(now)
-        }
-    }
-    fn next_deadline(&self) -> Option<Instant> {
-        od_core::time::earliest(self.node.next_deadline(), Some(self.next_sample))
-    }
-    fn next_output(&mut self) -> Option<Output> {
-        self.node.next_output()
-    }
-    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
-        self.node.store_done(result, now)
-    }
-    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
-        self.node.on_bus_event(event, now)
-    }
-    fn rx_ids(&self) -> RxIds {
-        od_core::Station::rx_ids(&self.node)
-    }
-    fn rx_masks(&self) -> od_core::shell::RxMasks {
-        od_core::Station::rx_masks(&self.node)
-    }
-    fn rx_ids_generation(&self) -> u32 {
-        od_core::Station::rx_ids_generation(&self.node)
-    }
-    fn context(&self) -> &Context {
-        self.node.context()
-    }
-}
-
-impl<E: Encoder + J1939Device> Station for SensedJ1939<E> {
+impl<E: Encoder + J1939Device> Station for Sensed<J1939Node<E>> {
     fn panel(&self) -> Option<String> {
-        let l = self.node.leds();
-        let at = match self.node.source_address() {
-            Some(a) => format!("SA {:02X}h", a.0),
-            None => "claiming".into(),
-        };
-        Some(format!("LEDs green={:?} red={:?} yellow={:?} ({at})", l.green, l.red, l.yellow))
+        self.panel_text()
     }
     fn set_sensor(&mut self, raw: u32) -> Result<(), String> {
-        if raw > self.max {
-            return Err(format!("{raw} is beyond the sensor's range 0..={}", self.max));
-        }
-        self.motion = Motion::Fixed(raw);
-        self.next_sample = Instant::ZERO;
-        Ok(())
+        self.hold(raw)
     }
 }
 
