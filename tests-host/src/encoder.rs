@@ -14,7 +14,7 @@ use od_core::encoder::{Encoder, SensorFault};
 use od_core::lss::Lss;
 use od_core::nmt::NmtState;
 use od_core::node::{BusEvent, CanopenDevice, Context, Core, Node, Output, RxIds};
-use od_core::{Frame, Instant};
+use od_core::{DeviceStation, Frame, Instant};
 
 use crate::bus::Station;
 
@@ -115,53 +115,50 @@ impl Sensor {
     }
 }
 
-/// A node of encoder `E` with a sampled [`Sensor`], as a bus station.
-pub struct Sensed<E: Encoder + CanopenDevice> {
-    node: Node<E>,
+/// An encoder node, CANopen or J1939, with a sampled [`Sensor`], as a bus station.
+pub struct SensedNode<N: DeviceStation> {
+    pub(crate) node: N,
     sensor: Sensor,
     next_sample: Instant,
 }
 
-impl<E: Encoder + CanopenDevice> Sensed<E> {
+/// A CANopen node of encoder `E` with a sampled [`Sensor`].
+pub type Sensed<E> = SensedNode<Node<E>>;
+
+impl<N: DeviceStation> SensedNode<N>
+where
+    N::Device: Encoder,
+{
     /// Node `node` fed by `sensor`; the first sample is taken when the node is first polled.
-    pub fn new(node: Node<E>, sensor: Sensor) -> Sensed<E> {
-        Sensed { node, sensor, next_sample: Instant::ZERO }
+    pub fn new(node: N, sensor: Sensor) -> SensedNode<N> {
+        SensedNode { node, sensor, next_sample: Instant::ZERO }
     }
 
     /// The node.
-    pub fn node(&mut self) -> &mut Node<E> {
+    pub fn node(&mut self) -> &mut N {
         &mut self.node
-    }
-
-    fn period(&self) -> u64 {
-        self.node.device().sample_period_us().max(1) as u64
     }
 }
 
-impl<E: Encoder + CanopenDevice> od_core::Station for Sensed<E> {
+impl<N: DeviceStation> od_core::Station for SensedNode<N>
+where
+    N::Device: Encoder,
+{
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
-        self.sensor.0.borrow_mut().now = now;
+        self.sensor.tick(now);
         self.node.on_frame(frame, now);
     }
 
     fn poll(&mut self, now: Instant) {
-        self.sensor.0.borrow_mut().now = now;
-        loop {
-            let event = self.sensor.0.borrow_mut().events.pop_front();
-            match event {
-                Some(e) => self.node.on_bus_event(e, now),
-                None => break,
-            }
+        self.sensor.tick(now);
+        while let Some(e) = self.sensor.next_event() {
+            self.node.on_bus_event(e, now);
         }
         if self.next_sample <= now {
-            let raw = {
-                let mut s = self.sensor.0.borrow_mut();
-                s.samples += 1;
-                s.read(now)
-            };
-            let (device, core) = self.node.split();
-            device.on_sample(core, raw, now);
-            let period = self.period();
+            let raw = self.sensor.sample(now);
+            let (device, ctx) = self.node.split();
+            device.on_sample(ctx, raw, now);
+            let period = self.node.device().sample_period_us().max(1) as u64;
             while self.next_sample <= now {
                 self.next_sample = self.next_sample.add_micros(period);
             }
@@ -170,10 +167,9 @@ impl<E: Encoder + CanopenDevice> od_core::Station for Sensed<E> {
     }
 
     fn next_deadline(&self) -> Option<Instant> {
-        let s = self.sensor.0.borrow();
         let mut next = self.next_sample;
-        if !s.events.is_empty() {
-            next = next.min(s.now);
+        if let Some(t) = self.sensor.event_due() {
+            next = next.min(t);
         }
         Some(match self.node.next_deadline() {
             Some(t) => t.min(next),
@@ -197,12 +193,20 @@ impl<E: Encoder + CanopenDevice> od_core::Station for Sensed<E> {
         self.node.rx_ids()
     }
 
+    fn rx_masks(&self) -> od_core::shell::RxMasks {
+        self.node.rx_masks()
+    }
+
     fn rx_ids_generation(&self) -> u32 {
         self.node.rx_ids_generation()
     }
 
     fn context(&self) -> &Context {
         self.node.context()
+    }
+
+    fn listen_only(&self) -> bool {
+        self.node.listen_only()
     }
 }
 
@@ -307,8 +311,7 @@ pub fn value(core: &Core, index: u16, sub: u8) -> i64 {
     core.od.entry(pos).dtype.to_i64(core.od.get(pos))
 }
 
-/// What another transport's station wrapper needs of a [`Sensor`] (the J1939 one in
-/// [`crate::j1939`]).
+/// What [`SensedNode`] does with a [`Sensor`].
 impl Sensor {
     /// The station saw `now`.
     pub(crate) fn tick(&self, now: Instant) {

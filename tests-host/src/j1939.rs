@@ -1,96 +1,16 @@
-//! J1939 stations for the virtual bus: a [`J1939Node`] fed by a [`Sensor`], the master's CAM21
+//! J1939 stations for the virtual bus: a [`J1939Node`] fed by a [`crate::encoder::Sensor`], the master's CAM21
 //! requests, and helpers to read frames by their J1939 fields.
 
 use od_core::encoder::Encoder;
 use od_core::j1939::node::{J1939Device, J1939Node};
-use od_core::shell::RxIds;
 use od_core::wire::j1939::{Address, CamRequest, Identifier, Pgn};
-use od_core::{BusEvent, Context, Frame, Instant, Output};
+use od_core::Frame;
 
 use crate::bus::{Bus, Station};
-use crate::encoder::Sensor;
+use crate::encoder::SensedNode;
 
-/// A J1939 node of encoder `E` with a sampled [`Sensor`], as a bus station.
-pub struct SensedJ1939<E: Encoder + J1939Device> {
-    node: J1939Node<E>,
-    sensor: Sensor,
-    next_sample: Instant,
-}
-
-impl<E: Encoder + J1939Device> SensedJ1939<E> {
-    /// Node `node` fed by `sensor`; the first sample is taken when the node is first polled.
-    pub fn new(node: J1939Node<E>, sensor: Sensor) -> SensedJ1939<E> {
-        SensedJ1939 { node, sensor, next_sample: Instant::ZERO }
-    }
-
-    /// The node.
-    pub fn node(&mut self) -> &mut J1939Node<E> {
-        &mut self.node
-    }
-}
-
-impl<E: Encoder + J1939Device> od_core::Station for SensedJ1939<E> {
-    fn on_frame(&mut self, frame: &Frame, now: Instant) {
-        self.sensor.tick(now);
-        self.node.on_frame(frame, now);
-    }
-
-    fn poll(&mut self, now: Instant) {
-        self.sensor.tick(now);
-        while let Some(e) = self.sensor.next_event() {
-            self.node.on_bus_event(e, now);
-        }
-        if self.next_sample <= now {
-            let raw = self.sensor.sample(now);
-            let (device, ctx) = od_core::DeviceStation::split(&mut self.node);
-            device.on_sample(ctx, raw, now);
-            let period = self.node.device().sample_period_us().max(1) as u64;
-            while self.next_sample <= now {
-                self.next_sample = self.next_sample.add_micros(period);
-            }
-        }
-        self.node.poll(now);
-    }
-
-    fn next_deadline(&self) -> Option<Instant> {
-        let mut next = self.next_sample;
-        if let Some(t) = self.sensor.event_due() {
-            next = next.min(t);
-        }
-        Some(match self.node.next_deadline() {
-            Some(t) => t.min(next),
-            None => next,
-        })
-    }
-
-    fn next_output(&mut self) -> Option<Output> {
-        self.node.next_output()
-    }
-
-    fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
-        self.node.store_done(result, now)
-    }
-
-    fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
-        self.node.on_bus_event(event, now)
-    }
-
-    fn rx_ids(&self) -> RxIds {
-        od_core::Station::rx_ids(&self.node)
-    }
-
-    fn rx_masks(&self) -> od_core::shell::RxMasks {
-        od_core::Station::rx_masks(&self.node)
-    }
-
-    fn rx_ids_generation(&self) -> u32 {
-        od_core::Station::rx_ids_generation(&self.node)
-    }
-
-    fn context(&self) -> &Context {
-        self.node.context()
-    }
-}
+/// A J1939 node of encoder `E` with a sampled [`crate::encoder::Sensor`], as a bus station.
+pub type SensedJ1939<E> = SensedNode<J1939Node<E>>;
 
 impl<E: Encoder + J1939Device> Station for SensedJ1939<E> {
     fn panel(&self) -> Option<String> {
