@@ -534,6 +534,22 @@ impl Client {
         Some((parts[0].to_string(), parts.get(2).unwrap_or(&"").to_string()))
     }
 
+    /// Sends `poke` until a frame with identifier `id` comes (at most `ms`); its data.
+    fn poke_until(&mut self, poke: &str, id: &str, ms: u64) -> Option<String> {
+        let deadline = WallClock::now() + Duration::from_millis(ms);
+        while WallClock::now() < deadline {
+            self.say(poke);
+            while WallClock::now() < deadline {
+                match self.frame() {
+                    Some((i, data)) if i == id => return Some(data),
+                    Some(_) => {}
+                    None => break,
+                }
+            }
+        }
+        None
+    }
+
     /// Waits up to `ms` for a frame with identifier `id`.
     fn wait_for(&mut self, id: &str, ms: u64) -> Option<String> {
         let deadline = WallClock::now() + Duration::from_millis(ms);
@@ -1197,4 +1213,38 @@ fn the_bench_display_shows_the_sgh10_position() {
     let value: u32 = row.trim().parse().unwrap_or_else(|_| panic!("not a number: {shown}"));
     assert!(sent.contains(&value), "{shown} not among {sent:?}");
     assert!(shown.ends_with("] LED green/off light white+red"), "acknowledged: {shown}");
+}
+
+// ---- the AP10T ----
+
+#[test]
+fn the_registry_builds_an_ap10t_that_shows_its_panel() {
+    let r = Registry::new(None);
+    let plan = r.build(&parse_device("ap10t:node=5").unwrap(), 1, 0).unwrap().pop().unwrap();
+    assert_eq!(plan.label, "AP10T");
+    let mut params = plan.params;
+    let mut node = (plan.boot)(&params.load());
+    assert_eq!(node.core().node_id, 5);
+    // The display test at power-on, then the set points ("---": none received).
+    node.poll(od_core::Instant::ZERO);
+    assert_eq!(node.panel().as_deref(), Some("[8.8.8.8.8.8.|8.8.8.8.8.8.] LED green/off light white+red"));
+    node.poll(od_core::Instant::from_millis(1000));
+    assert_eq!(node.panel().as_deref(), Some("[   ---|   ---] LED off/off light white+red"));
+    for bad in ["ap10t:redundant=true", "ap10t:serial=5", "ap10t:motion=ramp:5"] {
+        assert!(r.build(&parse_device(bad).unwrap(), 1, 0).is_err(), "{bad}");
+    }
+}
+
+#[test]
+fn a_factory_ap10t_detects_a_250_kbit_bus_and_takes_a_set_point() {
+    let sim = Sim::start(&["--device", "ap10t", "--bitrate", "can0=250"]);
+    let mut c = sim.open("can0");
+    // Silent until it hears traffic at its rate; then the boot-up of node 7Dh.
+    assert_eq!(c.poke_until(&f(0x000, &[0x80, 0x00]), "77D", 8000).as_deref(), Some("00"));
+    // Start it, send set point 1 = 12345 and read it back by RTR-less SYNC (TPDO2 is set
+    // point 2) and by the status word over SDO: valid, not acknowledged.
+    c.say(&f(0x000, &[0x01, 0x7D]));
+    c.say(&f(0x27D, &[0x39, 0x30, 0x00, 0x00, 0x00, 0x00, 0x04, 0x00]));
+    let sw = c.poke_until(&f(0x67D, &[0x40, 0x19, 0x5F, 0x00, 0, 0, 0, 0]), "5FD", 2000);
+    assert_eq!(sw.as_deref(), Some("4B195F0004000000"));
 }
