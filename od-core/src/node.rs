@@ -355,6 +355,11 @@ impl<D: CanopenDevice> Node<D> {
         self.device.poll(&mut self.ctx, now);
         if self.device.has_requests() {
             self.device_requests(now);
+            // A reset the device asked for (the AP10T's Auto-ID) boots up in this poll, as
+            // every reset a poll performs does.
+            if self.nmt == NmtState::Initialising && self.ctx.configured() && !self.lss.switching() {
+                self.boot_up(now);
+            }
         }
     }
 

@@ -139,6 +139,16 @@ impl SdoServer {
         now: Instant,
         dict: &mut impl ObjectAccess,
     ) -> Option<ServerResponse> {
+        // One transfer at a time: while a write's answer waits (a 1010h save for the flash, the
+        // AP10T's Auto-ID for its key) a new transfer is refused, so the waiting answer is the
+        // one the shell's result completes (D-SDO-10).
+        if self.deferred.is_some() {
+            if let ClientRequest::InitiateUpload { index, sub } | ClientRequest::InitiateDownload { index, sub, .. } =
+                req
+            {
+                return self.fail(index, sub, Abort::DEVICE_STATE);
+            }
+        }
         match req {
             ClientRequest::InitiateUpload { index, sub } => {
                 self.state = State::Idle;
@@ -441,6 +451,39 @@ mod tests {
         let r = s.on_request(&[0x00, 1, 2, 3, 4, 5, 6, 7], at(0), &mut d);
         assert_eq!(r, Some(abort_frame(0x2000, 0, Abort::LENGTH_HIGH)));
         assert_eq!(d.value, 7);
+    }
+
+    #[test]
+    fn a_transfer_while_an_answer_waits_is_refused_and_the_waiting_answer_kept() {
+        /// A 4-byte value at 2000h whose writes wait for the shell while `defer` is set.
+        struct Waiting {
+            value: u32,
+            defer: bool,
+        }
+        impl ObjectAccess for Waiting {
+            fn read_size(&mut self, _: u16, _: u8) -> Result<usize, Abort> {
+                Ok(4)
+            }
+            fn read(&mut self, _: u16, _: u8, buf: &mut [u8]) -> Result<usize, Abort> {
+                buf[..4].copy_from_slice(&self.value.to_le_bytes());
+                Ok(4)
+            }
+            fn write(&mut self, _: u16, _: u8, data: &[u8], _: Instant) -> Result<Written, Abort> {
+                self.value = u32::from_le_bytes(data.try_into().map_err(|_| Abort::LENGTH_MISMATCH)?);
+                Ok(if self.defer { Written::Deferred } else { Written::Done })
+            }
+        }
+        let mut s = SdoServer::new();
+        let mut d = Waiting { value: 0, defer: true };
+        assert_eq!(s.on_request(&[0x23, 0x00, 0x20, 0, 1, 2, 3, 4], at(0), &mut d), None);
+        d.defer = false;
+        let refused = s.on_request(&[0x40, 0x01, 0x20, 0, 0, 0, 0, 0], at(0), &mut d);
+        assert_eq!(refused, Some(abort_frame(0x2001, 0, Abort::DEVICE_STATE)));
+        let refused = s.on_request(&[0x23, 0x00, 0x20, 0, 9, 9, 9, 9], at(0), &mut d);
+        assert_eq!(refused, Some(abort_frame(0x2000, 0, Abort::DEVICE_STATE)));
+        assert_eq!(d.value, 0x0403_0201, "the refused write changed nothing");
+        assert_eq!(s.complete_deferred(Ok(())), Some([0x60, 0x00, 0x20, 0, 0, 0, 0, 0]));
+        assert_eq!(s.on_request(&[0x40, 0x00, 0x20, 0, 0, 0, 0, 0], at(0), &mut d).map(|a| a[0]), Some(0x43));
     }
 
     #[test]

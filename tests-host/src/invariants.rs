@@ -1404,8 +1404,11 @@ impl Rig {
             before.configured && before.nmt != NmtState::Initialising && r.addresses(before.node_id)
                 && matches!(r.command.cs(), 0x02 | 0x81 | 0x82)
         }));
+        // The AP10T's external-heartbeat timeout (D-AP-19) only enters PRE-OPERATIONAL, as NMT
+        // 80h does: the SDO server keeps a transfer and a waiting save through it.
+        let to_pre_operational = before.nmt == NmtState::Operational && after.nmt == NmtState::PreOperational;
         let reinit = after.nmt == NmtState::Initialising && before.nmt != NmtState::Initialising
-            || matches!(input, Input::Poll) && after.nmt != before.nmt;
+            || matches!(input, Input::Poll) && after.nmt != before.nmt && !to_pre_operational;
         if nmt_reset || reinit {
             self.sdo = SdoModel::Idle;
             self.deferred = false;
