@@ -17,6 +17,9 @@
 #       sends a classical data frame with an 11-bit identifier into the hub, as a master on
 #       the bus would: every device attached to the hub receives it. It starts the emulation
 #       if it is paused (a paused hub drops frames).
+#   can_send_ext "canWv58mr" 0x1C06EF00 "40 00 10 00 00 00 00 00"
+#       the same with a 29-bit identifier (SAE J1939: here a CAM21 request from address 00h to
+#       EFh, an SDO upload of 1000h); the trace shows such identifiers with 8 hex digits.
 #   sensor_feed "sgh10" 1 4096 20000
 #       queues 20000 sensor frames (turns 1, angle 4096, no error, no warning) in the
 #       DummySPISlave `sysbus.spi1.sensor` of machine "sgh10". The firmware reads one frame
@@ -70,6 +73,15 @@ def format_frame(can_id, data, extended=False, remote=False):
     for byte in data:
         text += " %02X" % int(byte)
     return text
+
+
+def check_id(can_id, extended=False):
+    """The identifier as an int, refused if it does not fit 11 bits (29 bits when extended)."""
+    can_id = int(can_id)
+    limit = 0x1FFFFFFF if extended else 0x7FF
+    if can_id < 0 or can_id > limit:
+        raise ValueError("0x%X is no %d-bit identifier" % (can_id, 29 if extended else 11))
+    return can_id
 
 
 def crc8(data):
@@ -252,17 +264,17 @@ def mc_can_trace(hub_name):
     _traced_hubs[hub] = on_frame
 
 
-def mc_can_send(hub_name, can_id, data=""):
+def _send(hub_name, can_id, data, extended):
     import System
     from Antmicro.Renode.Core.CAN import CANMessageFrame
     from Antmicro.Renode.Testing import CANTester
     from Antmicro.Renode.Time import TimeInterval
     hub = _hub(hub_name)
-    can_id = int(can_id)
-    if can_id < 0 or can_id > 0x7FF:
-        raise ValueError("can_send sends 11-bit identifiers only, not 0x%X" % can_id)
+    can_id = check_id(can_id, extended)
     payload = System.Array[System.Byte](parse_hex(data))
-    frame = CANMessageFrame(System.UInt32(can_id), payload)
+    # CANMessageFrame(id, data, extendedFormat): a 29-bit id whole when extended
+    # (src/Emulator/Main/Peripherals/CAN/CANMessageFrame.cs).
+    frame = CANMessageFrame(System.UInt32(can_id), payload, extended)
     # A tester per frame, attached only while it sends, so that it does not collect the bus's
     # frames afterwards. SendFrame starts the emulation first if it is paused.
     tester = CANTester(TimeInterval.FromSeconds(1.0))
@@ -271,6 +283,14 @@ def mc_can_send(hub_name, can_id, data=""):
         tester.SendFrame(frame)
     finally:
         hub.DetachFrom(tester)
+
+
+def mc_can_send(hub_name, can_id, data=""):
+    _send(hub_name, can_id, data, False)
+
+
+def mc_can_send_ext(hub_name, can_id, data=""):
+    _send(hub_name, can_id, data, True)
 
 
 def mc_sensor_feed(machine_name, turns, angle, count=1):

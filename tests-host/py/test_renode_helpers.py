@@ -27,6 +27,19 @@ def test_sensor_frame_layout():
     assert list(renode.sensor_frame(0, 5, True, False))[:4] == [0x00, 0x00, 0x00, 0x16]
 
 
+def test_identifiers_and_extended_trace_lines():
+    # can_send takes 11-bit identifiers, can_send_ext 29-bit ones (J1939).
+    assert renode.check_id(0x7FF) == 0x7FF
+    assert renode.check_id(0x1C06EF00, True) == 0x1C06EF00
+    with pytest.raises(ValueError):
+        renode.check_id(0x800)
+    with pytest.raises(ValueError):
+        renode.check_id(0x20000000, True)
+    # An Address Claimed of EFh as the Robot tests wait for it: 8 hex digits for 29 bits.
+    claim = [0x0A, 0x56, 0x39, 0x8E, 0x00, 0x8E, 0x00, 0xB0]
+    assert renode.format_frame(0x18EEFFEF, claim, extended=True) == "18EEFFEF [8] 0A 56 39 8E 00 8E 00 B0"
+
+
 def test_trace_lines_and_hex_parsing():
     assert renode.parse_hex("40 00 10 00") == [0x40, 0x00, 0x10, 0x00]
     assert renode.parse_hex("2B1710006400") == [0x2B, 0x17, 0x10, 0x00, 0x64, 0x00]

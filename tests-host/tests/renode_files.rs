@@ -2,13 +2,30 @@
 //! Renode true of its files: every file a script, platform or Robot test names exists, every
 //! firmware binary it names is one `cargo firmware` builds, every peripheral a script or test
 //! addresses (`sysbus.spi1.sensor`) is declared in the platform its machine loads, nothing is
-//! fetched from the network, every machine has a unique ID of its own, and the serial numbers
-//! the Robot tests expect are the ones those IDs give.
+//! fetched from the network, every machine has a unique ID of its own, the serial numbers
+//! the Robot tests expect are the ones those IDs give, every keyword (and named argument) the
+//! Robot tests call is one Renode's Robot framework provides or the file defines, and the frames
+//! the tests wait for on the J1939 hubs and the AP10T's hub are frames the od-core nodes send
+//! there: the tests' steps are replayed on the virtual bus with the machines the scripts create
+//! (their images, unique IDs and sensor feeds).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
+use board_plan::sensor::{multiturn_raw, Reading};
+use od_core::devices::wv5800m::Turns;
+use od_core::devices::wv58mr::{table_of, Wv58mr};
+use od_core::encoder::SensorFault;
+use od_core::j1939::node::J1939Node;
 use od_core::storage::crc::crc32;
+use od_core::storage::{identity, Loaded, ParamFlash, Record};
+use od_core::{Bitrate, CanId, Frame, Instant};
+use tests_host::ap10t::Display;
+use tests_host::bus::Bus;
+use tests_host::encoder::Sensor;
+use tests_host::flash::RamFlash;
+use tests_host::j1939::SensedJ1939;
+use tests_host::sim::devices::REGION;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
@@ -137,6 +154,12 @@ fn peripheral_paths(line: &str) -> Vec<String> {
 struct Machine {
     platform: String,
     uid: BTreeMap<u32, u32>,
+    /// The firmware binary its reset macro loads (`$global.<bin>_bin`).
+    bin: String,
+    /// The CAN hub its bxCAN is connected to.
+    hub: String,
+    /// The parameter image loaded at 0x0801F000, if any (a path below renode/).
+    image: Option<String>,
 }
 
 impl Machine {
@@ -187,6 +210,19 @@ fn run_script(file: &str, machines: &mut BTreeMap<String, Machine>, current: &mu
                 let parse = |s: &str| u32::from_str_radix(s.trim_start_matches("0x"), 16).unwrap();
                 machines.get_mut(&name).unwrap().uid.insert(parse(offset), parse(value));
             }
+            ["sysbus", "LoadELF", bin] => {
+                let name = current.clone().unwrap();
+                let bin = bin.strip_prefix("$global.").and_then(|b| b.strip_suffix("_bin"));
+                machines.get_mut(&name).unwrap().bin = bin.unwrap_or_else(|| panic!("{file}: LoadELF {line}")).into();
+            }
+            ["sysbus", "LoadBinary", image, "0x0801F000"] => {
+                let name = current.clone().unwrap();
+                machines.get_mut(&name).unwrap().image = Some(image.trim_start_matches("$ORIGIN/").to_string());
+            }
+            ["connector", "Connect", "sysbus.can1", hub] => {
+                let name = current.clone().unwrap();
+                machines.get_mut(&name).unwrap().hub = hub.trim_matches('"').to_string();
+            }
             _ => {}
         }
         for p in peripheral_paths(line) {
@@ -215,18 +251,37 @@ fn all_scripts() -> BTreeMap<String, BTreeMap<String, Machine>> {
 #[test]
 fn scripts_name_existing_files_binaries_and_peripherals() {
     let scripts = all_scripts();
-    for name in ["bench.resc", "bus.resc", "sgh10.resc", "sgh50.resc", "wv5800m.resc"] {
+    for name in ["bench.resc", "bus.resc", "sgh10.resc", "sgh50.resc", "wv5800m.resc", "ap10t.resc", "wv58mr.resc"] {
         assert!(scripts.contains_key(name), "renode/{name}");
     }
     for (file, machines) in &scripts {
         assert!(!machines.is_empty(), "{file} creates no machine");
         for (name, m) in machines {
             assert!(renode().join(&m.platform).is_file(), "{file}: {name} loads no platform");
+            assert!(!m.bin.is_empty(), "{file}: {name} loads no firmware");
+            assert!(!m.hub.is_empty(), "{file}: {name} is on no CAN hub");
+            if let Some(image) = &m.image {
+                assert!(renode().join(image).is_file(), "{file}: {name} loads {image}, which is missing");
+            }
         }
     }
-    // The platforms no script uses yet load what they build on, too.
-    for repl in ["ap10t.repl", "wv58mr.repl"] {
-        assert!(platform(repl).contains_key("can1"), "{repl}");
+    // All five devices on the bench and on the one-bus bench; the J1939 pair on a hub of its
+    // own (J1939 and CANopen are two buses), every CANopen device of bus.resc on one.
+    for file in ["bench.resc", "bus.resc"] {
+        let bins: BTreeSet<_> = scripts[file].values().map(|m| m.bin.as_str()).collect();
+        assert_eq!(bins, BTreeSet::from(["ap10t", "sgh10", "sgh50", "wv5800m", "wv58mr"]), "{file}");
+        for m in scripts[file].values() {
+            let j1939_hub = scripts[file].values().filter(|o| o.hub == m.hub).all(|o| o.bin == "wv58mr");
+            assert_eq!(m.bin == "wv58mr", j1939_hub, "{file}: {} shares the hub {} across protocols", m.bin, m.hub);
+        }
+    }
+    let can0: BTreeSet<_> = scripts["bus.resc"].values().filter(|m| m.hub == "can0").map(|m| m.bin.as_str()).collect();
+    assert_eq!(can0, BTreeSet::from(["ap10t", "sgh10", "sgh50", "wv5800m"]));
+    // Each machine loads the platform of its board.
+    for machines in scripts.values() {
+        for m in machines.values() {
+            assert_eq!(m.platform, format!("{}.repl", m.bin), "{} runs on its own board", m.bin);
+        }
     }
 }
 
@@ -251,11 +306,9 @@ fn every_machine_has_a_unique_id_of_its_own() {
 #[test]
 fn robot_serial_numbers_follow_from_the_unique_ids() {
     let scripts = all_scripts();
-    let robot = read(&renode().join("tests/canopen.robot"));
-    let expected = |var: &str| -> u32 {
-        let line = robot.lines().find(|l| l.starts_with(&format!("${{{var}}}"))).unwrap_or_else(|| panic!("{var}"));
-        u32::from_str_radix(line.split_whitespace().nth(1).unwrap(), 16).unwrap()
-    };
+    let robot = read(&renode().join("tests/bench.robot"));
+    let vars = robot_variables(&robot);
+    let expected = |var: &str| -> u32 { u32::from_str_radix(&vars[var], 16).unwrap() };
     for (machine, var) in [("sgh50a", "SGH50A_SERIAL"), ("sgh50b", "SGH50B_SERIAL")] {
         let uid = scripts["sgh50.resc"][machine].uid_bytes().unwrap();
         assert_eq!(crc32(&uid), expected(var), "{machine}");
@@ -293,35 +346,488 @@ fn robot_tests_name_existing_files_and_peripherals() {
     let machines: BTreeMap<_, _> =
         scripts.values().flat_map(|m| m.iter().map(|(k, v)| (k.clone(), v.clone()))).collect();
     let manifest = read(&root().join("firmware/Cargo.toml"));
-    let robot = read(&renode().join("tests/canopen.robot"));
     let mut includes = 0;
-    for line in robot.lines().filter(|l| !l.trim_start().starts_with('#')) {
-        if let Some((_, rel)) = line.split_once("${FILES}/") {
-            let rel = rel.split_whitespace().next().unwrap();
-            assert!(renode().join(rel).is_file(), "canopen.robot: renode/{rel} is missing");
-            includes += 1;
-        }
-        if let Some((_, bin)) = line.split_once("${FIRMWARE}/") {
-            let bin = bin.split_whitespace().next().unwrap();
-            assert!(manifest.contains(&format!("name = \"{bin}\"")), "canopen.robot: {bin} is no firmware binary");
-        }
-        let paths = peripheral_paths(line);
-        if !paths.is_empty() {
-            let machine = line.split_once("machine=").map(|(_, m)| m.split_whitespace().next().unwrap());
-            let machine = machine.unwrap_or_else(|| panic!("canopen.robot: {line}: which machine?"));
-            for p in paths {
-                assert!(resolves(&platform(&machines[machine].platform), &p), "canopen.robot: {p} on {machine}");
+    let robots = robot_files();
+    assert!(!robots.is_empty(), "renode/tests/*.robot");
+    for (file, robot) in &robots {
+        for line in robot.lines().filter(|l| !l.trim_start().starts_with('#')) {
+            if let Some((_, rel)) = line.split_once("${FILES}/") {
+                let rel = rel.split_whitespace().next().unwrap();
+                assert!(renode().join(rel).is_file(), "{file}: renode/{rel} is missing");
+                includes += 1;
             }
-        }
-        // The machines sensor_feed addresses have the sensor stand-in canopen.py feeds.
-        if let Some((_, m)) = line.split_once("Feed Sensor") {
-            let m = m.split_whitespace().next().unwrap_or("$");
-            if !m.starts_with('$') {
-                assert!(resolves(&platform(&machines[m].platform), "sysbus.spi1.sensor"), "{m} has no sensor");
+            if let Some((_, bin)) = line.split_once("${FIRMWARE}/") {
+                let bin = bin.split_whitespace().next().unwrap();
+                assert!(manifest.contains(&format!("name = \"{bin}\"")), "{file}: {bin} is no firmware binary");
+            }
+            let paths = peripheral_paths(line);
+            if !paths.is_empty() {
+                let machine = line.split_once("machine=").map(|(_, m)| m.split_whitespace().next().unwrap());
+                let machine = machine.unwrap_or_else(|| panic!("{file}: {line}: which machine?"));
+                for p in paths {
+                    assert!(resolves(&platform(&machines[machine].platform), &p), "{file}: {p} on {machine}");
+                }
+            }
+            // The machines sensor_feed addresses have the sensor stand-in canopen.py feeds.
+            if let Some((_, m)) = line.split_once("Feed Sensor") {
+                let m = m.split_whitespace().next().unwrap_or("$");
+                if !m.starts_with('$') {
+                    assert!(resolves(&platform(&machines[m].platform), "sysbus.spi1.sensor"), "{m} has no sensor");
+                }
             }
         }
     }
-    assert!(includes >= 5, "canopen.py, the device scripts, the bench and the bus");
+    assert!(includes >= 7, "canopen.py, the device scripts, the bench and the bus");
     let py = read(&renode().join("canopen.py"));
     assert!(py.contains("machine[\"sysbus.spi1.sensor\"]"), "canopen.py feeds spi1's sensor");
+}
+
+/// The Robot files of renode/tests: (file name, text).
+fn robot_files() -> Vec<(String, String)> {
+    let mut files = Vec::new();
+    for entry in std::fs::read_dir(renode().join("tests")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "robot") {
+            files.push((path.file_name().unwrap().to_str().unwrap().to_string(), read(&path)));
+        }
+    }
+    files.sort();
+    files
+}
+
+/// The cells of a Robot line (separated by two or more spaces), without a trailing comment.
+fn cells(line: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    for cell in line.split("  ").map(str::trim).filter(|c| !c.is_empty()) {
+        if cell.starts_with('#') {
+            break;
+        }
+        out.push(cell.to_string());
+    }
+    out
+}
+
+/// The lines of one section (`*** Name ***`) of a Robot file.
+fn section<'a>(text: &'a str, name: &str) -> Vec<&'a str> {
+    let mut inside = false;
+    let mut lines = Vec::new();
+    for line in text.lines() {
+        if let Some(header) = line.strip_prefix("***") {
+            inside = header.trim_end_matches('*').trim().eq_ignore_ascii_case(name);
+            continue;
+        }
+        if inside {
+            lines.push(line);
+        }
+    }
+    lines
+}
+
+/// The `*** Variables ***` of a Robot file: name (without `${}`) to value.
+fn robot_variables(text: &str) -> BTreeMap<String, String> {
+    let mut vars = BTreeMap::new();
+    for line in section(text, "Variables") {
+        let c = cells(line);
+        if let Some(name) = c.first().and_then(|n| n.strip_prefix("${")).and_then(|n| n.strip_suffix('}')) {
+            vars.insert(name.to_string(), c.get(1).cloned().unwrap_or_default());
+        }
+    }
+    vars
+}
+
+/// The blocks (test cases or keywords) of a section: name and the cells of each step.
+fn blocks(text: &str, name: &str) -> Vec<(String, Vec<Vec<String>>)> {
+    let mut out: Vec<(String, Vec<Vec<String>>)> = Vec::new();
+    for line in section(text, name) {
+        if line.trim().is_empty() || line.trim_start().starts_with('#') {
+            continue;
+        }
+        if !line.starts_with(' ') {
+            out.push((line.trim().to_string(), Vec::new()));
+            continue;
+        }
+        let c = cells(line);
+        if c.is_empty() {
+            continue;
+        }
+        let block = out.last_mut().unwrap_or_else(|| panic!("a step outside a block: {line}"));
+        if c[0] == "..." {
+            block.1.last_mut().expect("a continuation of nothing").extend(c[1..].iter().cloned());
+        } else {
+            block.1.push(c);
+        }
+    }
+    out
+}
+
+/// A keyword name as Robot Framework matches it: case, spaces and underscores do not count.
+fn normalized(name: &str) -> String {
+    name.chars().filter(|c| *c != ' ' && *c != '_').flat_map(char::to_lowercase).collect()
+}
+
+/// The keywords of Renode's Robot framework the tests may call, with the names of their
+/// arguments (renode 06854d4d: src/Renode/RobotFrameworkEngine/RenodeKeywords.cs,
+/// CANKeywords.cs, LedKeywords.cs; tests/renode-keywords.robot for Reset Emulation's test setup).
+const RENODE_KEYWORDS: &[(&str, &[&str])] = &[
+    ("Reset Emulation", &[]),
+    ("Start Emulation", &[]),
+    ("Execute Command", &["command", "machine"]),
+    ("Execute Python", &["command", "machine"]),
+    ("Execute Script", &["path"]),
+    ("Wait For Pause", &["timeout"]),
+    ("Register Failing Log String", &["pattern", "treatAsRegex"]),
+    ("Create Log Tester", &["timeout", "defaultPauseEmulation", "maxLogEntries"]),
+    (
+        "Wait For Log Entry",
+        &["pattern", "timeout", "keep", "treatAsRegex", "pauseEmulation", "level", "startEmulation"],
+    ),
+    ("Should Not Be In Log", &["pattern", "timeout", "treatAsRegex", "pauseEmulation", "level"]),
+    ("Clear Log Tester History", &[]),
+    ("Create CAN Tester", &["canHub", "defaultTimeout", "machine"]),
+    ("Wait For Frame With Id", &["id", "timeout", "testerId", "pauseEmulation"]),
+    ("Set Default CAN Timeout", &["timeout"]),
+    ("Create LED Tester", &["led", "defaultTimeout", "machine"]),
+    ("Set Default LED Timeout", &["timeout"]),
+    ("Assert LED State", &["state", "timeout", "testerId", "pauseEmulation"]),
+    ("Assert And Hold LED State", &["initialState", "timeoutAssert", "timeoutHold", "testerId", "pauseEmulation"]),
+    ("Assert LED Duty Cycle", &["testDuration", "expectedDutyCycle", "tolerance", "testerId", "pauseEmulation"]),
+    (
+        "Assert LED Is Blinking",
+        &["testDuration", "onDuration", "offDuration", "tolerance", "testerId", "pauseEmulation"],
+    ),
+];
+
+/// Every step of every test and keyword calls a keyword Renode provides (with argument names it
+/// takes) or one the file defines (with the arguments it declares).
+#[test]
+fn robot_tests_call_only_keywords_renode_provides() {
+    for (file, robot) in robot_files() {
+        let mut known: BTreeMap<String, Vec<String>> = RENODE_KEYWORDS
+            .iter()
+            .map(|(k, args)| (normalized(k), args.iter().map(|a| a.to_string()).collect()))
+            .collect();
+        let keywords = blocks(&robot, "Keywords");
+        for (name, steps) in &keywords {
+            let args = steps
+                .iter()
+                .find(|c| c[0] == "[Arguments]")
+                .map(|c| {
+                    c[1..]
+                        .iter()
+                        .map(|a| a.trim_start_matches("${").split(['}', '=']).next().unwrap().to_string())
+                        .collect()
+                })
+                .unwrap_or_default();
+            assert!(known.insert(normalized(name), args).is_none(), "{file}: {name} defined twice or shadows Renode's");
+        }
+        let cases = blocks(&robot, "Test Cases");
+        assert!(!cases.is_empty(), "{file} has no test");
+        for (block, steps) in keywords.iter().chain(&cases) {
+            for c in steps {
+                if c[0].starts_with('[') {
+                    continue;
+                }
+                // `${x}=    Keyword    ...`
+                let k = usize::from(c[0].starts_with("${") && c[0].ends_with('='));
+                let name = &c[k];
+                let args = known.get(&normalized(name)).unwrap_or_else(|| panic!("{file}: {block}: no keyword {name}"));
+                for arg in &c[k + 1..] {
+                    if let Some((key, _)) = arg.split_once('=') {
+                        if key.chars().all(|ch| ch.is_ascii_alphanumeric()) && !key.is_empty() {
+                            assert!(args.contains(&key.to_string()), "{file}: {block}: {name} takes no argument {key}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A Robot step with the file's variables and a keyword's arguments put in.
+fn expand(cell: &str, vars: &BTreeMap<String, String>) -> String {
+    let mut out = cell.to_string();
+    // Values may name other variables (${TIMEOUT} in an argument default): a few rounds.
+    for _ in 0..4 {
+        for (k, v) in vars {
+            out = out.replace(&format!("${{{k}}}"), v);
+        }
+    }
+    out
+}
+
+/// The Renode-level steps of a test case: user keywords inlined with their arguments.
+fn primitive_steps(
+    steps: &[Vec<String>],
+    keywords: &BTreeMap<String, Vec<Vec<String>>>,
+    vars: &BTreeMap<String, String>,
+    out: &mut Vec<Vec<String>>,
+) {
+    for c in steps {
+        if c[0].starts_with('[') {
+            continue;
+        }
+        let k = usize::from(c[0].starts_with("${") && c[0].ends_with('='));
+        let c: Vec<String> = c[k..].iter().map(|x| expand(x, vars)).collect();
+        let Some(body) = keywords.get(&normalized(&c[0])) else {
+            out.push(c);
+            continue;
+        };
+        let mut local = vars.clone();
+        let declared = body.iter().find(|s| s[0] == "[Arguments]").map(|s| s[1..].to_vec()).unwrap_or_default();
+        let (mut positional, mut named) = (Vec::new(), BTreeMap::new());
+        for a in &c[1..] {
+            match a.split_once('=') {
+                Some((key, v)) if declared.iter().any(|d| d.starts_with(&format!("${{{key}}}"))) => {
+                    named.insert(key.to_string(), v.to_string());
+                }
+                _ => positional.push(a.clone()),
+            }
+        }
+        for (i, d) in declared.iter().enumerate() {
+            let (name, default) = match d.split_once("}=") {
+                Some((n, def)) => (n.trim_start_matches("${").to_string(), Some(expand(def, vars))),
+                None => (d.trim_start_matches("${").trim_end_matches('}').to_string(), None),
+            };
+            let value = named.get(&name).cloned().or_else(|| positional.get(i).cloned()).or(default);
+            let value = value.unwrap_or_else(|| panic!("{}: no value for {name}", c[0]));
+            local.insert(name, value.replace("${EMPTY}", ""));
+        }
+        primitive_steps(body, keywords, &local, out);
+    }
+}
+
+/// A Monitor command's words; a quoted string is one word (without its quotes).
+fn monitor_words(command: &str) -> Vec<String> {
+    let mut words = Vec::new();
+    let mut rest = command.trim();
+    while !rest.is_empty() {
+        if let Some(quoted) = rest.strip_prefix('"') {
+            let end = quoted.find('"').expect("an unterminated string");
+            words.push(quoted[..end].to_string());
+            rest = quoted[end + 1..].trim_start();
+        } else {
+            let end = rest.find(' ').unwrap_or(rest.len());
+            words.push(rest[..end].to_string());
+            rest = rest[end..].trim_start();
+        }
+    }
+    words
+}
+
+/// A frame as `can_trace` writes it (renode/canopen.py, format_frame): identifier in 3 or 8
+/// hex digits, [length], the data bytes.
+fn trace(frame: &Frame) -> String {
+    let id = match frame.id {
+        CanId::Std(id) => format!("{id:03X}"),
+        CanId::Ext(id) => format!("{id:08X}"),
+    };
+    let mut text = format!("{id} [{}]", frame.payload().len());
+    for b in frame.payload() {
+        text += &format!(" {b:02X}");
+    }
+    text
+}
+
+fn number(text: &str) -> u32 {
+    match text.strip_prefix("0x") {
+        Some(hex) => u32::from_str_radix(hex, 16).unwrap(),
+        None => text.parse().unwrap(),
+    }
+}
+
+fn hex_bytes(text: &str) -> Vec<u8> {
+    let digits: String = text.split_whitespace().collect();
+    (0..digits.len()).step_by(2).map(|i| u8::from_str_radix(&digits[i..i + 2], 16).unwrap()).collect()
+}
+
+/// The named argument `key=` of a step, if given.
+fn named_arg<'a>(c: &'a [String], key: &str) -> Option<&'a str> {
+    c.iter().find_map(|a| a.strip_prefix(key).and_then(|v| v.strip_prefix('=')))
+}
+
+/// One hub of a Robot test replayed on the virtual bus: the machines the scripts put on it.
+struct Hub {
+    bus: Bus,
+    /// (machine, station number) of an AP10T: Renode models no bit timing, so a frame sent
+    /// into the hub reaches it at whatever rate it listens; the replay sends at that rate.
+    ap10t: Option<usize>,
+    sensors: BTreeMap<String, Sensor>,
+    /// What `can_trace` has logged since the last Clear Log Tester History.
+    log: Vec<String>,
+}
+
+/// Builds the virtual bus of `hub` if every machine on it is one the replay models (the
+/// WV58MR, J1939, and the AP10T): each booted from its parameter image or a blank flash, as
+/// the firmware does (a blank board's serial number from its unique ID, D-FW-3).
+fn virtual_hub(machines: &BTreeMap<String, Machine>, hub: &str) -> Option<Hub> {
+    let on: Vec<_> = machines.iter().filter(|(_, m)| m.hub == hub).collect();
+    if on.is_empty() || !on.iter().all(|(_, m)| m.bin == "wv58mr" || m.bin == "ap10t") {
+        return None;
+    }
+    let mut bus = Bus::new();
+    bus.set_bitrate(Bitrate::K250);
+    let mut out = Hub { bus, ap10t: None, sensors: BTreeMap::new(), log: Vec::new() };
+    for (name, m) in on {
+        let table = if m.bin == "wv58mr" { table_of(Turns::Multi12) } else { od_core::devices::ap10t::table::TABLE };
+        let flash = match &m.image {
+            Some(image) => RamFlash::from_bytes(std::fs::read(renode().join(image)).unwrap()),
+            None => RamFlash::new(REGION.pages as usize),
+        };
+        let params = ParamFlash::new(flash, REGION, identity(table));
+        if m.bin == "ap10t" {
+            out.ap10t = Some(out.bus.add_with_flash(params, Display::boot));
+            continue;
+        }
+        // DummySPISlave answers 00h until sensor_feed queues frames: no sensor.
+        let sensor = Sensor::new(0);
+        sensor.fail(SensorFault::NoResponse);
+        let serial = crc32(&m.uid_bytes().unwrap());
+        let s = sensor.clone();
+        out.bus.add_with_flash(params, move |loaded| {
+            // firmware::run::boot_j1939: a flash without a serial number gets the unique ID's.
+            let has_serial = loaded.image().is_some_and(|i| i.get(0x1018, 4).is_some());
+            let loaded = if has_serial {
+                loaded.clone()
+            } else {
+                let mut image = loaded.image().cloned().unwrap_or_default();
+                for e in table.iter().filter(|e| (e.index, e.sub) == (0x1018, 4) || (e.index, e.sub) == (0x650B, 0)) {
+                    image.set(Record::of(e, serial)).unwrap();
+                }
+                Loaded::Image(image)
+            };
+            SensedJ1939::new(J1939Node::boot(Wv58mr::new(Turns::Multi12), &loaded), s.clone())
+        });
+        out.sensors.insert(name.clone(), sensor);
+    }
+    Some(out)
+}
+
+impl Hub {
+    fn run_to(&mut self, t: Instant) {
+        self.bus.advance_to(t);
+        self.log.extend(self.bus.drain().iter().map(|s| trace(&s.frame)));
+    }
+
+    fn send(&mut self, frame: Frame) {
+        if let Some(n) = self.ap10t {
+            let rate = self.bus.node_bitrate(n);
+            self.bus.set_bitrate(rate);
+        }
+        self.log.push(trace(&frame));
+        self.bus.send(frame);
+        self.log.extend(self.bus.drain().iter().map(|s| trace(&s.frame)));
+    }
+}
+
+/// Replays every Robot test on the hubs the virtual bus can model (the J1939 hubs and the
+/// AP10T's): Wait For Log Entry on a `can_trace` line waits (in 1 ms steps, up to its timeout)
+/// for such a frame; Should Not Be In Log on one checks that none came within its timeout;
+/// `can_send`/`can_send_ext` send, `sensor_feed` gives the sensor its reading, `RunFor` and
+/// the watchdog test's minute let time pass. A test whose frames the od-core nodes do not send
+/// fails here as it would in Renode.
+#[test]
+fn robot_frames_on_j1939_and_ap10t_hubs_are_the_nodes_frames() {
+    let mut replayed = 0;
+    for (file, robot) in robot_files() {
+        let vars = robot_variables(&robot);
+        let keywords: BTreeMap<_, _> =
+            blocks(&robot, "Keywords").into_iter().map(|(k, s)| (normalized(&k), s)).collect();
+        for (case, steps) in blocks(&robot, "Test Cases") {
+            let mut prims = Vec::new();
+            primitive_steps(&steps, &keywords, &vars, &mut prims);
+            let mut machines = BTreeMap::new();
+            let mut hubs: BTreeMap<String, Hub> = BTreeMap::new();
+            let mut now = Instant::ZERO;
+            let timeout_ms = |c: &[String]| -> u64 {
+                let t = named_arg(c, "timeout").unwrap_or(vars["TIMEOUT"].as_str());
+                (t.parse::<f64>().unwrap() * 1000.0) as u64
+            };
+            for c in &prims {
+                let what = format!("{file}: {case}: {}", c.join("  "));
+                match c[0].as_str() {
+                    "Execute Command" => {
+                        let w = monitor_words(&c[1]);
+                        match w.iter().map(String::as_str).collect::<Vec<_>>().as_slice() {
+                            ["include", path] if path.ends_with(".resc") => {
+                                let rel = path.rsplit_once("/").unwrap().1;
+                                let before: BTreeSet<String> = machines.keys().cloned().collect();
+                                run_script(rel, &mut machines, &mut None);
+                                let new_hubs: BTreeSet<String> = machines
+                                    .iter()
+                                    .filter(|(k, _)| !before.contains(*k))
+                                    .map(|(_, m)| m.hub.clone())
+                                    .collect();
+                                for h in new_hubs {
+                                    if let Some(hub) = virtual_hub(&machines, &h) {
+                                        hubs.insert(h, hub);
+                                    }
+                                }
+                            }
+                            ["can_send" | "can_send_ext", hub, id, data] => {
+                                if let Some(h) = hubs.get_mut(*hub) {
+                                    let id = number(id);
+                                    let id = if w[0] == "can_send" { CanId::Std(id as u16) } else { CanId::Ext(id) };
+                                    h.send(Frame::new(id, &hex_bytes(data)));
+                                }
+                            }
+                            ["sensor_feed", machine, turns, angle, _] => {
+                                for h in hubs.values_mut() {
+                                    if let Some(s) = h.sensors.get(*machine) {
+                                        let r = Reading {
+                                            turns: number(turns) as u16,
+                                            angle: number(angle) as u16,
+                                            warning: false,
+                                        };
+                                        s.set(multiturn_raw(r, 12));
+                                        s.heal();
+                                    }
+                                }
+                            }
+                            ["emulation", "RunFor", t] => {
+                                now = now.add_millis((t.parse::<f64>().unwrap() * 1000.0) as u64);
+                                hubs.values_mut().for_each(|h| h.run_to(now));
+                            }
+                            _ => {}
+                        }
+                    }
+                    "Wait For Log Entry" | "Should Not Be In Log" => {
+                        let pattern = &c[1];
+                        // "CAN <hub> <frame>", or "CAN <hub>" for any frame on the hub.
+                        let on_hub = pattern.strip_prefix("CAN ").map(|p| p.split_once(' ').unwrap_or((p, "")));
+                        let end = now.add_millis(timeout_ms(c));
+                        match on_hub {
+                            Some((hub, frame)) if hubs.contains_key(hub) => {
+                                let h = hubs.get_mut(hub).unwrap();
+                                let seen = |h: &Hub| h.log.iter().any(|l| l.starts_with(frame));
+                                if c[0] == "Wait For Log Entry" {
+                                    while !seen(h) && now < end {
+                                        now = now.add_millis(1);
+                                        h.run_to(now);
+                                    }
+                                    assert!(seen(h), "{what}: not among {:#?}", h.log);
+                                } else {
+                                    h.run_to(end);
+                                    assert!(!seen(h), "{what}: {:#?}", h.log);
+                                    now = end;
+                                }
+                                hubs.values_mut().for_each(|h| h.run_to(now));
+                                replayed += 1;
+                            }
+                            // Only the watchdog test's minute passes time elsewhere.
+                            _ if c[0] == "Should Not Be In Log" && !pattern.starts_with("CAN ") => {
+                                now = end;
+                                hubs.values_mut().for_each(|h| h.run_to(now));
+                            }
+                            _ => {}
+                        }
+                    }
+                    "Clear Log Tester History" => hubs.values_mut().for_each(|h| h.log.clear()),
+                    _ => {}
+                }
+            }
+        }
+    }
+    // The AP10T's and the WV58MR pairs' boot, claims, EPOS, CAM21, the bench, the bus and the
+    // minute: every such step was replayed.
+    assert!(replayed >= 25, "{replayed} steps replayed");
 }

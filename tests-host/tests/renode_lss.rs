@@ -1,5 +1,5 @@
 //! What the Renode Robot test "LSS Fastscan Should Find Both SGH50 Boards By Their Serial
-//! Numbers" (renode/tests/canopen.robot) relies on, on the virtual bus: the two channels of a
+//! Numbers" (renode/tests/bench.robot) relies on, on the virtual bus: the two channels of a
 //! redundant SGH50 (node-IDs 1 and 2) lose their node-IDs by LSS alone (switch global
 //! configuration, configure node-ID FFh, switch global waiting, NMT reset communication), are
 //! then silent, and both take part in the next Fastscan.

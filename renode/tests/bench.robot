@@ -1,7 +1,8 @@
 *** Settings ***
-Documentation       CANopen behaviour of the SGH10, SGH50 and WV5800M firmware on emulated STM32F103CB
-...                 boards (renode/README.md). Run from the repository root, after `cargo firmware`:
-...                 renode-test renode/tests/canopen.robot
+Documentation       The firmware of all five devices on emulated STM32F103CB boards (renode/README.md):
+...                 the CANopen SGH10, SGH50, WV5800M and AP10T, the SAE J1939 WV58MR. Run from the
+...                 repository root, after `cargo firmware`:
+...                 renode-test renode/tests/bench.robot
 ...
 ...                 Frames on a hub are observed through the `can_trace` command of renode/canopen.py,
 ...                 which logs each one as "CAN <hub> <id> [<length>] <data> from <sender>", and matched
@@ -9,7 +10,10 @@ Documentation       CANopen behaviour of the SGH10, SGH50 and WV5800M firmware o
 ...                 values come from the devices' dictionaries (eds/*.eds, generated from od-core) and
 ...                 CiA 301: boot-up 700h+node [1] 00; expedited upload response 43h (4 data bytes);
 ...                 download response 60h; heartbeat state 7Fh PRE-OPERATIONAL, 05h OPERATIONAL;
-...                 NMT start 01h; PDOs only in OPERATIONAL.
+...                 NMT start 01h; PDOs only in OPERATIONAL. The J1939 frames (29-bit identifiers,
+...                 8 hex digits in the trace) are those of the od-core J1939 node for the same
+...                 boards: tests-host/tests/renode_files.rs runs the WV58MR pairs and the AP10T
+...                 on the virtual bus and fails when a frame waited for here is not among theirs.
 ...                 Renode's default Test Setup (Reset Emulation) runs before each test.
 
 *** Variables ***
@@ -44,6 +48,27 @@ ${LSS_UNCONFIGURE}          11 FF 00 00 00 00 00 00
 # tests-host/tests/renode_images.rs checks them against the script)
 ${SGH50A_SERIAL}            62552812
 ${SGH50B_SERIAL}            F9F0647D
+# 1000h default of the AP10T (eds/AP10T.eds): 0x00000196
+${AP10T_DEVICE_TYPE}        96 01 00 00
+# NMT "enter PRE-OPERATIONAL" (80h) to all nodes: a master's ordinary traffic. An AP10T that
+# detects the bit rate (as shipped, D-AP-20) ends the detection on the first frame it hears and
+# does not otherwise handle that frame.
+${NMT_PRE_OPERATIONAL_ALL}  80 00
+# The WV58MR pair of wv58mr.resc from a blank flash: the NAME (Address Claimed data, LSB first)
+# of each channel, its identity number the low 21 bits of the serial number the unique ID gives
+# (wv58mra 9559560Ah, wv58mrb 0EFC1A65h; D-J1939-6, D-FW-3). wv58mra's is the lower NAME.
+${WV58MRA_NAME}             0A 56 39 8E 00 8E 00 B0
+${WV58MRB_NAME}             65 1A 3C 8E 00 8E 00 B0
+# The pair of bus.resc: serial numbers 1000050 and 1000051 from their parameter images.
+${WV58MR_1000050_NAME}      72 42 2F 8E 00 8E 00 B0
+${WV58MR_1000051_NAME}      73 42 2F 8E 00 8E 00 B0
+# EPOS (PGN FC5Fh) of the fed sensor: turns 1, angle 4096 = raw 5000h (1 x 16384 + 4096),
+# position = raw at the default scaling; bytes 4..7 FFh. ESPD (FC61h) at rest: speed 0.
+${EPOS_FED}                 00 50 00 00 FF FF FF FF
+${ESPD_AT_REST}             00 00 FF FF FF FF FF FF
+# CAM21 (PGN 0600h, priority 7) from address 00h to EFh: identifier 1C06EF00h; the answer comes
+# on CAM11 (0500h) from EFh to 00h: 1C0500EFh (D-J1939-2)
+${CAM21_TO_EF}              0x1C06EF00
 
 *** Keywords ***
 Load Bus Commands
@@ -67,6 +92,31 @@ Create WV5800M
     Execute Command         include @${FILES}/wv5800m.resc
     Execute Command         can_trace "canWv5800m"
 
+Create AP10T
+    Execute Command         $global.ap10t_bin=@${FIRMWARE}/ap10t
+    Execute Command         include @${FILES}/ap10t.resc
+    Execute Command         can_trace "canAp10t"
+
+Create Redundant WV58MR
+    Execute Command         $global.wv58mr_bin=@${FIRMWARE}/wv58mr
+    Execute Command         include @${FILES}/wv58mr.resc
+    Execute Command         can_trace "canWv58mr"
+    Execute Command         emulation SetGlobalSerialExecution True
+
+Set Every Binary
+    Execute Command         $global.sgh10_bin=@${FIRMWARE}/sgh10
+    Execute Command         $global.sgh50_bin=@${FIRMWARE}/sgh50
+    Execute Command         $global.wv5800m_bin=@${FIRMWARE}/wv5800m
+    Execute Command         $global.ap10t_bin=@${FIRMWARE}/ap10t
+    Execute Command         $global.wv58mr_bin=@${FIRMWARE}/wv58mr
+
+Create Bus
+    Load Bus Commands
+    Set Every Binary
+    Execute Command         include @${FILES}/bus.resc
+    Execute Command         can_trace "can0"
+    Execute Command         can_trace "can1"
+
 Feed Sensor
     [Arguments]             ${machine}
     # A valid reading (turns 1, angle 4096, no error) for the first 20000 samples, queued
@@ -76,6 +126,11 @@ Feed Sensor
 Send Frame
     [Arguments]             ${hub}    ${id}    ${data}=${EMPTY}
     Execute Command         can_send "${hub}" ${id} "${data}"
+
+Send Frame Ext
+    [Arguments]             ${hub}    ${id}    ${data}=${EMPTY}
+    # A 29-bit identifier (J1939).
+    Execute Command         can_send_ext "${hub}" ${id} "${data}"
 
 Wait For Frame
     [Arguments]             ${hub}    ${frame}    ${timeout}=${TIMEOUT}
@@ -178,24 +233,28 @@ WV5800M Should Flash Its Green LED Until NMT Start
 
 Bench Should Boot Every Device
     Create Log Tester       ${TIMEOUT}
-    Execute Command         $global.sgh10_bin=@${FIRMWARE}/sgh10
-    Execute Command         $global.sgh50_bin=@${FIRMWARE}/sgh50
-    Execute Command         $global.wv5800m_bin=@${FIRMWARE}/wv5800m
-    # bench.resc loads canopen.py, traces its three hubs and starts the emulation.
+    Set Every Binary
+    # bench.resc loads canopen.py, traces its five hubs and starts the emulation.
     Execute Command         include @${FILES}/bench.resc
     Wait For Frame          canSgh10    701 [1] 00
     Wait For Frame          canSgh50    701 [1] 00
     Wait For Frame          canSgh50    702 [1] 00
     Wait For Frame          canWv5800m    701 [1] 00
+    # The WV58MR pair: EFh to the lower NAME, 80h to the other.
+    Wait For Frame          canWv58mr    18EEFFEF [8] ${WV58MRA_NAME}
+    Wait For Frame          canWv58mr    18EEFF80 [8] ${WV58MRB_NAME}
+    Wait For Frame          canWv58mr    0CFC5FEF [8]
+    Wait For Frame          canWv58mr    0CFC5F80 [8]
+    # The AP10T alone on its hub hears nothing until a frame is sent there.
+    Should Not Be In Log    CAN canAp10t    timeout=0
+    Send Frame              canAp10t    0x000    ${NMT_PRE_OPERATIONAL_ALL}
+    Wait For Frame          canAp10t    77D [1] 00
 
 One Bus Should Carry The Simulator's Bench With Stored Node-IDs
     Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
-    Load Bus Commands
-    Execute Command         $global.sgh10_bin=@${FIRMWARE}/sgh10
-    Execute Command         $global.sgh50_bin=@${FIRMWARE}/sgh50
-    Execute Command         $global.wv5800m_bin=@${FIRMWARE}/wv5800m
-    Execute Command         include @${FILES}/bus.resc
-    Execute Command         can_trace "can0"
+    Create Bus
+    Feed Sensor             wv58mr-1000050
+    Feed Sensor             wv58mr-1000051
     # The node-IDs come from the parameter pages (renode/images), the SGH50's channel from its
     # straps: four nodes, four boot-ups on one bus.
     Wait For Frame          can0    70A [1] 00
@@ -209,6 +268,16 @@ One Bus Should Carry The Simulator's Bench With Stored Node-IDs
     # The serial numbers are the programmed ones (1018h sub 4 = 1000010 = 000F424Ah).
     Send Frame              can0    0x60A    40 18 10 04 00 00 00 00
     Wait For Frame          can0    58A [8] 43 18 10 04 4A 42 0F 00
+    # The AP10T (node-ID 40 = 28h from its image, bit rate detected) boots up once it heard
+    # a frame on can0; the frames above were such frames.
+    Wait For Frame          can0    728 [1] 00
+    Send Frame              can0    0x628    ${READ_DEVICE_TYPE}
+    Wait For Frame          can0    5A8 [8] 43 00 10 00 ${AP10T_DEVICE_TYPE}
+    # can1, the J1939 bus: serial number 1000050's NAME is the lower and keeps EFh.
+    Wait For Frame          can1    18EEFFEF [8] ${WV58MR_1000050_NAME}
+    Wait For Frame          can1    18EEFF80 [8] ${WV58MR_1000051_NAME}
+    Wait For Frame          can1    0CFC5FEF [8] ${EPOS_FED}
+    Wait For Frame          can1    0CFC5F80 [8] ${EPOS_FED}
 
 SGH10 Should Keep A Stored Parameter Over A Machine Reset
     Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
@@ -264,14 +333,9 @@ LSS Fastscan Should Find Both SGH50 Boards By Their Serial Numbers
     Wait For Frame          canSgh50    720 [1] 00
     Wait For Frame          canSgh50    721 [1] 00
 
-One Bus Should Run A Minute Without A Watchdog Reset
+Five Devices Should Run A Minute Without A Watchdog Reset
     Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
-    Load Bus Commands
-    Execute Command         $global.sgh10_bin=@${FIRMWARE}/sgh10
-    Execute Command         $global.sgh50_bin=@${FIRMWARE}/sgh50
-    Execute Command         $global.wv5800m_bin=@${FIRMWARE}/wv5800m
-    Execute Command         include @${FILES}/bus.resc
-    Execute Command         can_trace "can0"
+    Create Bus
     Execute Command         emulation SetGlobalAdvanceImmediately True
     Wait For Frame          can0    70A [1] 00
     Wait For Frame          can0    714 [1] 00
@@ -284,18 +348,67 @@ One Bus Should Run A Minute Without A Watchdog Reset
     Send Frame              can0    0x614    ${HEARTBEAT_100_MS}
     Send Frame              can0    0x615    ${HEARTBEAT_100_MS}
     Send Frame              can0    0x61E    ${HEARTBEAT_100_MS}
+    # The AP10T has heard those frames and booted up.
+    Wait For Frame          can0    728 [1] 00
+    Send Frame              can0    0x628    ${HEARTBEAT_100_MS}
+    Wait For Frame          can0    5A8 [8] 60 17 10 00
     Send Frame              can0    0x000    ${NMT_START_ALL}
     Wait For Frame          can0    70A [1] 05
     Wait For Frame          can0    714 [1] 05
     Wait For Frame          can0    715 [1] 05
     Wait For Frame          can0    71E [1] 05
+    Wait For Frame          can0    728 [1] 05
+    # The J1939 pair publishes EPOS and ESPD every 50 ms once its claims stood.
+    Wait For Frame          can1    0CFC5FEF [8]
+    Wait For Frame          can1    0CFC5F80 [8]
     # Renode's IWDG model logs this (Warning) when it resets a machine. Before the firmware
     # kept its timer alarms off compare value 0 (board_plan::alarm, renode issue 1007) the
-    # four boards were reset 2 to 3 times in 10 to 12 virtual seconds.
+    # four CANopen boards were reset 2 to 3 times in 10 to 12 virtual seconds.
     Should Not Be In Log    Watchdog reset triggered!    timeout=60
-    # Still alive: every node's heartbeat after the minute.
+    # Still alive: every node's heartbeat, and both channels' EPOS, after the minute.
     Clear Log Tester History
     Wait For Frame          can0    70A [1] 05
     Wait For Frame          can0    714 [1] 05
     Wait For Frame          can0    715 [1] 05
     Wait For Frame          can0    71E [1] 05
+    Wait For Frame          can0    728 [1] 05
+    Wait For Frame          can1    0CFC5FEF [8]
+    Wait For Frame          can1    0CFC5F80 [8]
+
+AP10T Should Stay Silent Until It Hears A Frame, Then Boot Up
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create AP10T
+    # As shipped it detects the bit rate (D-AP-20): it listens silent, 1 s at each of five
+    # rates. Three virtual seconds without a frame on the hub: three rate switches, no boot-up.
+    Should Not Be In Log    CAN canAp10t    timeout=3
+    # The first frame ends the detection (in Renode at whatever rate it listens: the model has
+    # no bit timing); the boot-up follows: node-ID 7Dh as shipped.
+    Send Frame              canAp10t    0x000    ${NMT_PRE_OPERATIONAL_ALL}
+    Wait For Frame          canAp10t    77D [1] 00
+    Send Frame              canAp10t    0x67D    ${READ_DEVICE_TYPE}
+    Wait For Frame          canAp10t    5FD [8] 43 00 10 00 ${AP10T_DEVICE_TYPE}
+
+Redundant WV58MR Should Claim Two Addresses And Publish EPOS
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create Redundant WV58MR
+    Feed Sensor             wv58mra
+    Feed Sensor             wv58mrb
+    # Both channels start at EFh and claim it after the delay their NAME gives (D-J1939-13):
+    # wv58mrb first, then wv58mra, whose NAME is the lower; wv58mrb loses and claims 80h
+    # (D-J1939-1, -4). Address Claimed: PGN EE00h, priority 6, to FFh.
+    Wait For Frame          canWv58mr    18EEFFEF [8] ${WV58MRB_NAME}
+    Wait For Frame          canWv58mr    18EEFFEF [8] ${WV58MRA_NAME}
+    Wait For Frame          canWv58mr    18EEFF80 [8] ${WV58MRB_NAME}
+    # 250 ms after its claim each channel publishes EPOS (FC5Fh) and ESPD (FC61h), priority 3,
+    # every 50 ms (D-J1939-10).
+    Wait For Frame          canWv58mr    0CFC5FEF [8] ${EPOS_FED}
+    Wait For Frame          canWv58mr    0CFC5F80 [8] ${EPOS_FED}
+    Wait For Frame          canWv58mr    0CFC61EF [8] ${ESPD_AT_REST}
+    Wait For Frame          canWv58mr    0CFC6180 [8] ${ESPD_AT_REST}
+    # Parameter access through the controller's 29-bit mask filters: CAM21 from 00h to EFh,
+    # an SDO upload of 1000h; the answer on CAM11 from EFh to 00h: the 12-bit multiturn's
+    # 00020196h.
+    Send Frame Ext          canWv58mr    ${CAM21_TO_EF}    ${READ_DEVICE_TYPE}
+    Wait For Frame          canWv58mr    1C0500EF [8] 43 00 10 00 ${WV_MULTITURN_TYPE}
