@@ -412,3 +412,24 @@ Redundant WV58MR Should Claim Two Addresses And Publish EPOS
     # 00020196h.
     Send Frame Ext          canWv58mr    ${CAM21_TO_EF}    ${READ_DEVICE_TYPE}
     Wait For Frame          canWv58mr    1C0500EF [8] 43 00 10 00 ${WV_MULTITURN_TYPE}
+
+WV58MR Should Keep A Stored Address Over A Machine Reset
+    Create Log Tester       ${TIMEOUT}    defaultPauseEmulation=true
+    Load Bus Commands
+    Create Redundant WV58MR
+    Wait For Frame          canWv58mr    0CFC5FEF [8]
+    # 5F0Ah.01, the address, = 90h (UNSIGNED8, expedited 2Fh) over CAM21 to EFh (wv58mra); it
+    # takes effect at the next start (D-J1939-21). Then 1010h.01 "save", answered once the
+    # parameter pages are written (the flash interface stand-in, as for the SGH10).
+    Send Frame Ext          canWv58mr    ${CAM21_TO_EF}    2F 0A 5F 01 90 00 00 00
+    Wait For Frame          canWv58mr    1C0500EF [8] 60 0A 5F 01
+    Send Frame Ext          canWv58mr    ${CAM21_TO_EF}    ${SAVE_ALL}
+    Wait For Frame          canWv58mr    1C0500EF [8] 60 10 10 01
+    # A reset of wv58mra (the reset macro reloads the ELF; the flash keeps the pages): it claims
+    # the stored address with its own NAME and publishes from there; wv58mrb stays at 80h.
+    Clear Log Tester History
+    Execute Command         mach set "wv58mra"
+    Execute Command         machine Reset
+    Wait For Frame          canWv58mr    18EEFF90 [8] ${WV58MRA_NAME}
+    Wait For Frame          canWv58mr    0CFC5F90 [8]
+    Wait For Frame          canWv58mr    0CFC5F80 [8]
