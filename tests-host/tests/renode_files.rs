@@ -296,6 +296,36 @@ fn scripts_name_existing_files_binaries_and_peripherals() {
     }
 }
 
+/// Every script that creates machines sets the 1 ms quantum renode/README.md ("Speed",
+/// docs/decisions.md D-RN-3) describes, and no script or test sets another one; scripts whose
+/// machines share a hub execute them serially. (ap10t.resc was left at 10 µs, the quantum that
+/// made the first bench crawl, when the others moved to 1 ms.)
+#[test]
+fn every_script_sets_the_one_millisecond_quantum() {
+    let scripts = all_scripts();
+    for entry in std::fs::read_dir(renode()).unwrap().chain(std::fs::read_dir(renode().join("tests")).unwrap()) {
+        let path = entry.unwrap().path();
+        let Some(ext) = path.extension().and_then(|e| e.to_str()) else { continue };
+        if ext != "resc" && ext != "robot" {
+            continue;
+        }
+        let text = read(&path);
+        let file = path.file_name().unwrap().to_str().unwrap();
+        let quanta: Vec<_> = code_lines(&text, "#").filter(|l| l.contains("SetGlobalQuantum")).collect();
+        for q in &quanta {
+            assert!(q.trim_end().ends_with("SetGlobalQuantum \"0.001\""), "{file}: {q}");
+        }
+        if ext == "resc" {
+            assert!(!quanta.is_empty(), "{file} sets no quantum");
+            let machines = &scripts[file];
+            let shared = machines.values().any(|m| machines.values().filter(|o| o.hub == m.hub).count() > 1);
+            if shared {
+                assert!(text.contains("emulation SetGlobalSerialExecution True"), "{file}: serial execution");
+            }
+        }
+    }
+}
+
 /// Every machine has its own 96-bit unique ID (the stock platform had none, so every blank
 /// board derived serial number 7BD5C66Fh, the CRC-32 of 12 zero bytes).
 #[test]
