@@ -33,6 +33,13 @@
 #           LSS fastscan canSgh50: found serial 1A2B3C4D (vendor 00000195, product ...,
 #           revision ...), node-ID 32
 #       and the end as "LSS fastscan canSgh50: done, 2 found".
+#   bench_speed 60 "can0"
+#       measures the emulation's speed (renode/README.md, "Speed"): runs it 100 ms so that every
+#       board boots, sends one frame into the hub given (if any: an AP10T detecting the bit
+#       rate waits for one), then runs it 60 virtual seconds and logs at Info level
+#           bench speed: 60.000 virtual s in 48.210 wall s = 1.245 virtual s per wall s
+#       Run it on a paused emulation, with `emulation SetGlobalAdvanceImmediately true` for the
+#       figure without Renode's pacing to real time.
 #
 # What it relies on, all in renode master 06854d4d / renode-infrastructure 0c7d0762:
 # - `externals` (scripts/monitor.py) to find a hub by name;
@@ -73,6 +80,12 @@ def format_frame(can_id, data, extended=False, remote=False):
     for byte in data:
         text += " %02X" % int(byte)
     return text
+
+
+def speed_line(virtual_s, wall_s):
+    """The log line of bench_speed."""
+    rate = virtual_s / wall_s if wall_s > 0 else float("inf")
+    return "bench speed: %.3f virtual s in %.3f wall s = %.3f virtual s per wall s" % (virtual_s, wall_s, rate)
 
 
 def check_id(can_id, extended=False):
@@ -362,3 +375,23 @@ def mc_lss_fastscan(hub_name, first_node_id=0x20, window_ms=10):
     hub.FrameReceived += on_frame
     # The first request goes out once the emulation runs (a paused hub drops frames).
     later(lambda timestamp: step(timestamp, True))
+
+
+def mc_bench_speed(seconds, wake_hub=None):
+    from System.Diagnostics import Stopwatch
+    from Antmicro.Renode.Logging import Logger, LogLevel
+    from Antmicro.Renode.Time import TimeInterval
+    emulation = emulationManager.CurrentEmulation
+    if emulation.IsStarted:
+        emulation.PauseAll()
+    # Emulation.RunFor starts, runs the master time source for the period, pauses.
+    emulation.RunFor(TimeInterval.FromSeconds(0.1))
+    if wake_hub is not None:
+        # can_send starts the emulation (a paused hub drops frames); pause it again to measure.
+        _send(wake_hub, 0x000, "80 00", False)
+        emulation.PauseAll()
+    seconds = float(seconds)
+    watch = Stopwatch.StartNew()
+    emulation.RunFor(TimeInterval.FromSeconds(seconds))
+    watch.Stop()
+    Logger.Log(LogLevel.Info, speed_line(seconds, watch.Elapsed.TotalSeconds))

@@ -40,6 +40,14 @@ def test_identifiers_and_extended_trace_lines():
     assert renode.format_frame(0x18EEFFEF, claim, extended=True) == "18EEFFEF [8] 0A 56 39 8E 00 8E 00 B0"
 
 
+def test_speed_line():
+    # What bench_speed logs and renode/README.md asks to keep: virtual seconds per wall second.
+    assert renode.speed_line(60.0, 48.0) == (
+        "bench speed: 60.000 virtual s in 48.000 wall s = 1.250 virtual s per wall s"
+    )
+    assert renode.speed_line(60.0, 120.0).endswith("= 0.500 virtual s per wall s")
+
+
 def test_trace_lines_and_hex_parsing():
     assert renode.parse_hex("40 00 10 00") == [0x40, 0x00, 0x10, 0x00]
     assert renode.parse_hex("2B1710006400") == [0x2B, 0x17, 0x10, 0x00, 0x64, 0x00]
