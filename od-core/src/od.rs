@@ -10,6 +10,7 @@
 //! declaration itself.
 
 use crate::abort::Abort;
+use crate::lookup::Lookup;
 
 /// CiA 301 data types used by the devices, with their CiA 301 type codes as discriminants.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -426,11 +427,13 @@ impl Entry {
 
 /// Most entries any device dictionary holds; checked when an [`Od`] is built.
 pub const MAX_ENTRIES: usize = 160;
+const _: () = assert!(MAX_ENTRIES <= crate::lookup::MAX_ROWS);
 
 /// A device's dictionary: the static declarations and their current values.
 #[derive(Clone)]
 pub struct Od {
     table: &'static [Entry],
+    lookup: Lookup,
     values: [u32; MAX_ENTRIES],
 }
 
@@ -445,7 +448,7 @@ impl Od {
             table.windows(2).all(|w| (w[0].index, w[0].sub) < (w[1].index, w[1].sub)),
             "dictionary not sorted by (index, sub)"
         );
-        let mut od = Od { table, values: [0; MAX_ENTRIES] };
+        let mut od = Od { table, lookup: Lookup::new(table), values: [0; MAX_ENTRIES] };
         od.load_defaults(|_| true, node_id);
         od
     }
@@ -462,20 +465,9 @@ impl Od {
 
     /// Position of (index, sub), or the abort code an SDO client gets for it:
     /// 06020000h when no entry has that index, 06090011h when the index exists but not the sub.
+    #[inline]
     pub fn find(&self, index: u16, sub: u8) -> Result<usize, Abort> {
-        // One integer compare per step: (index, sub) packed as index << 8 | sub.
-        let key = (index as u32) << 8 | sub as u32;
-        match self.table.binary_search_by_key(&key, |e| (e.index as u32) << 8 | e.sub as u32) {
-            Ok(pos) => Ok(pos),
-            Err(at) => {
-                let near = |p: usize| self.table.get(p).is_some_and(|e| e.index == index);
-                if near(at) || (at > 0 && near(at - 1)) {
-                    Err(Abort::NO_SUBINDEX)
-                } else {
-                    Err(Abort::NO_OBJECT)
-                }
-            }
-        }
+        self.lookup.find(self.table, index, sub)
     }
 
     /// Position of (index, sub), if declared.
