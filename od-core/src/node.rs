@@ -14,7 +14,7 @@ use crate::autobaud::Scan;
 use crate::bitrate::Bitrate;
 use crate::context::Written;
 use crate::emcy;
-use crate::frame::{CanId, Frame, RxId};
+use crate::frame::{CanId, Frame, RxFilter, RxId};
 use crate::guarding::Guarding;
 use crate::heartbeat::Heartbeat;
 use crate::lss::{self, Lss, LssEvent};
@@ -45,6 +45,9 @@ pub struct Node<D: CanopenDevice> {
     lss: Lss,
     /// The automatic bit-rate detection under way (before the boot-up).
     scan: Option<Scan>,
+    /// The receive list as a quick filter, and the [`Node::rx_ids_generation`] it was built
+    /// for (rebuilt on the first frame after a change).
+    filter: (RxFilter, u32),
 }
 
 /// The CANopen services whose rules the dictionary access path applies to their entries,
@@ -157,7 +160,9 @@ impl<D: CanopenDevice> Node<D> {
             pdo: Pdos::default(),
             lss,
             scan,
+            filter: (RxFilter::OPEN, 0),
         };
+        node.filter = (RxFilter::new(&node.rx_ids()), node.rx_ids_generation());
         node.notify();
         node
     }
@@ -245,9 +250,27 @@ impl<D: CanopenDevice> Node<D> {
     }
 
     /// Handles one received frame.
+    #[inline]
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
-        // A frame received without error during the bit-rate detection proves the rate: the
-        // node takes it (as its pending code, which a 1010h save keeps) and boots up.
+        // A frame received without error during the bit-rate detection proves the rate.
+        if self.scan.is_some() {
+            return self.on_scan_frame();
+        }
+        // Frames for other nodes stop here (the node acts only on its receive list), in a
+        // few instructions before the full dispatch's.
+        if self.filter.1 != self.rx_ids_generation() {
+            self.rebuild_filter();
+        }
+        if self.filter.0.passes(frame.id) {
+            self.dispatch(frame, now);
+        }
+    }
+
+    /// The bit-rate detection's first frame: the node takes its rate (as its pending code,
+    /// which a 1010h save keeps) and boots up.
+    #[cold]
+    #[inline(never)]
+    fn on_scan_frame(&mut self) {
         if let Some(scan) = self.scan.take() {
             let rate = scan.rate();
             self.ctx.bitrate = rate;
@@ -255,8 +278,18 @@ impl<D: CanopenDevice> Node<D> {
             if let (Some(pos), Some(code)) = (self.ctx.od.find_hook(CoreHook::PendingBitrate), code) {
                 self.ctx.od.set(pos, code);
             }
-            return;
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn rebuild_filter(&mut self) {
+        self.filter = (RxFilter::new(&self.rx_ids()), self.rx_ids_generation());
+    }
+
+    /// A frame on the receive list (or one the quick filter could not tell from it).
+    #[inline(never)]
+    fn dispatch(&mut self, frame: &Frame, now: Instant) {
         // LSS works in every NMT state and without a node-ID (CiA 305).
         if frame.id == CanId::Std(lss::RX_ID) && self.lss.enabled() {
             let event = self.lss.on_frame(&mut self.ctx, frame, now);
@@ -660,5 +693,71 @@ mod tests {
         assert_eq!(rtr(&mut node, 10), None);
         node.write(0x1017, 0, &0u16.to_le_bytes(), at(20)).unwrap();
         assert_eq!(rtr(&mut node, 30), Some(0xFF));
+    }
+
+    /// The receive list changes only with its generation, whatever the bus does: the shell's
+    /// acceptance filters and the node's own quick filter rely on it. Random sequences of the
+    /// frames that move it (NMT resets, LSS node-ID and store, 1005h, PDO COB-IDs with their
+    /// valid and RTR bits), on the SGH10 and the AP10T (which has RPDOs).
+    #[test]
+    fn receive_list_changes_only_with_its_generation() {
+        use crate::devices::ap10t::Ap10t;
+        fn sdo(node: u8, index: u16, sub: u8, v: u32) -> Frame {
+            let [a, b, c, d] = v.to_le_bytes();
+            Frame::std(0x600 + node as u16, &[0x23, index as u8, (index >> 8) as u8, sub, a, b, c, d])
+        }
+        fn frames(node: u8) -> [Frame; 16] {
+            [
+                Frame::std(0, &[0x01, 0]),
+                Frame::std(0, &[0x80, 0]),
+                Frame::std(0, &[0x82, node]),
+                Frame::std(0, &[0x81, 0]),
+                sdo(node, 0x1005, 0, 0x81),
+                sdo(node, 0x1005, 0, 0x80),
+                sdo(node, 0x1400, 1, 0x8000_0200 + node as u32),
+                sdo(node, 0x1400, 1, 0x0000_0200 + node as u32),
+                sdo(node, 0x1400, 1, 0x0000_0333),
+                sdo(node, 0x1800, 1, 0x8000_0180 + node as u32),
+                sdo(node, 0x1800, 1, 0x4000_0180 + node as u32),
+                sdo(node, 0x1800, 1, 0x0000_0180 + node as u32),
+                Frame::std(0x7E5, &[0x04, 1, 0, 0, 0, 0, 0, 0]),
+                Frame::std(0x7E5, &[0x11, 7, 0, 0, 0, 0, 0, 0]),
+                Frame::std(0x7E5, &[0x17, 0, 0, 0, 0, 0, 0, 0]),
+                Frame::std(0x7E5, &[0x04, 0, 0, 0, 0, 0, 0, 0]),
+            ]
+        }
+        fn run<D: CanopenDevice>(mut node: Node<D>, seed: u32) {
+            let mut x = seed;
+            let mut t = 0;
+            let mut seen = (node.rx_ids_generation(), node.rx_ids());
+            let mut changes = 0;
+            for _ in 0..3000 {
+                x = x.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                let id = if x >> 31 == 0 { node.context().node_id } else { 7 };
+                let f = frames(id)[(x >> 16) as usize % 16];
+                t += 1 + (x >> 8) as u64 % 50;
+                let now = Instant::from_millis(t);
+                node.on_frame(&f, now);
+                node.poll(now);
+                while let Some(out) = node.next_output() {
+                    if let Output::Store(_) = out {
+                        node.store_done(Ok(()), now);
+                    }
+                }
+                let now_ids = (node.rx_ids_generation(), node.rx_ids());
+                if now_ids.0 == seen.0 {
+                    assert_eq!(now_ids.1, seen.1, "receive list changed under generation {} after {f:?}", seen.0);
+                }
+                changes += (now_ids.1 != seen.1) as u32;
+                let filter = RxFilter::new(&now_ids.1);
+                assert!(now_ids.1.iter().all(|r| filter.passes(r.id)));
+                seen = now_ids;
+            }
+            assert!(changes > 20, "the sequence moved the receive list {changes} times");
+        }
+        for seed in 0..8 {
+            run(Node::new(T, 1, Bitrate::K500), seed);
+            run(Node::new(Ap10t::default(), 1, Bitrate::K500), seed);
+        }
     }
 }
