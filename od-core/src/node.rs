@@ -48,6 +48,10 @@ pub struct Node<D: CanopenDevice> {
     /// The receive list as a quick filter, and the [`Node::rx_ids_generation`] it was built
     /// for (rebuilt on the first frame after a change).
     filter: (RxFilter, u32),
+    /// [`Node::next_deadline`] as the last poll left it, while nothing else has touched the
+    /// node since (`None`: something has, compute it afresh). A poll before it has nothing to
+    /// do (issue 14's W4, the firmware's idle tick).
+    due: Option<Option<Instant>>,
 }
 
 /// The CANopen services whose rules the dictionary access path applies to their entries,
@@ -161,6 +165,7 @@ impl<D: CanopenDevice> Node<D> {
             lss,
             scan,
             filter: (RxFilter::OPEN, 0),
+            due: None,
         };
         node.filter = (RxFilter::new(&node.rx_ids()), node.rx_ids_generation());
         node.notify();
@@ -184,6 +189,7 @@ impl<D: CanopenDevice> Node<D> {
 
     /// The device and the context together, for the shell's sensor samples and key presses.
     pub fn split(&mut self) -> (&mut D, &mut Context) {
+        self.due = None;
         (&mut self.device, &mut self.ctx)
     }
 
@@ -271,6 +277,7 @@ impl<D: CanopenDevice> Node<D> {
     #[cold]
     #[inline(never)]
     fn on_scan_frame(&mut self) {
+        self.due = None;
         if let Some(scan) = self.scan.take() {
             let rate = scan.rate();
             self.ctx.bitrate = rate;
@@ -290,6 +297,7 @@ impl<D: CanopenDevice> Node<D> {
     /// A frame on the receive list (or one the quick filter could not tell from it).
     #[inline(never)]
     fn dispatch(&mut self, frame: &Frame, now: Instant) {
+        self.due = None;
         // LSS works in every NMT state and without a node-ID (CiA 305).
         if frame.id == CanId::Std(lss::RX_ID) && self.lss.enabled() {
             let event = self.lss.on_frame(&mut self.ctx, frame, now);
@@ -351,11 +359,26 @@ impl<D: CanopenDevice> Node<D> {
     /// raises or clears its EMCYs. EMCYs raised while the node cannot send (bus-off, STOPPED)
     /// follow the EMCY producer's rules.
     pub fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.due = None;
         self.device.on_bus_event(&mut self.ctx, event, now);
     }
 
     /// Runs the timers due at `now`.
+    #[inline]
     pub fn poll(&mut self, now: Instant) {
+        // Nothing has touched the node since the last poll, and its next deadline is later:
+        // nothing to do.
+        if let Some(due) = self.due {
+            if due.is_none_or(|d| now < d) {
+                return;
+            }
+        }
+        self.poll_all(now);
+        self.due = Some(self.deadline());
+    }
+
+    #[inline(never)]
+    fn poll_all(&mut self, now: Instant) {
         if let Some(scan) = &mut self.scan {
             let first = scan.next_deadline() == Instant::ZERO;
             if let Some(rate) = scan.poll(now).or(first.then(|| scan.rate())) {
@@ -414,10 +437,21 @@ impl<D: CanopenDevice> Node<D> {
         }
     }
 
-    /// When [`Node::poll`] must next run; `None` when nothing is scheduled.
+    /// When [`Node::poll`] must next run; `None` when nothing is scheduled. A poll before it
+    /// does nothing.
+    #[inline]
     pub fn next_deadline(&self) -> Option<Instant> {
+        match self.due {
+            Some(due) => due,
+            None => self.deadline(),
+        }
+    }
+
+    #[inline(never)]
+    fn deadline(&self) -> Option<Instant> {
         if let Some(scan) = &self.scan {
-            return Some(scan.next_deadline());
+            // The device runs meanwhile (the AP10T's display test).
+            return earliest(Some(scan.next_deadline()), self.device.next_deadline());
         }
         if self.device.has_requests() {
             return Some(Instant::ZERO);
@@ -468,6 +502,7 @@ impl<D: CanopenDevice> Node<D> {
     /// The shell has finished (or failed) the [`Output::Store`] it was given.
     /// The result goes to whoever asked: LSS store configuration, else the SDO server (1010h).
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.due = None;
         self.ctx.store_done(result.is_ok(), now);
         if self.lss.store_done(&mut self.ctx, result.is_ok()) {
             return;
@@ -581,6 +616,7 @@ impl<D: CanopenDevice> Node<D> {
     /// for a device's own user interface and for tests. Nothing changes on `Err`. A 1010h save
     /// answers `Written::Deferred` and completes at [`Node::store_done`].
     pub fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
+        self.due = None;
         let Node { ctx, device, nmt, heartbeat, guarding, pdo, lss, .. } = self;
         let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
         access::write(ctx, device, &mut services, index, sub, data, now)
@@ -589,6 +625,7 @@ impl<D: CanopenDevice> Node<D> {
     /// Test access to the parts (a service's state beside the context).
     #[cfg(test)]
     pub(crate) fn parts(&mut self) -> (&mut Context, &mut NmtState, &mut Pdos) {
+        self.due = None;
         (&mut self.ctx, &mut self.nmt, &mut self.pdo)
     }
 }
@@ -652,7 +689,7 @@ impl<D: CanopenDevice> DeviceStation for Node<D> {
         &self.device
     }
     fn split(&mut self) -> (&mut D, &mut Context) {
-        (&mut self.device, &mut self.ctx)
+        Node::split(self)
     }
 }
 
@@ -758,6 +795,98 @@ mod tests {
         for seed in 0..8 {
             run(Node::new(T, 1, Bitrate::K500), seed);
             run(Node::new(Ap10t::default(), 1, Bitrate::K500), seed);
+        }
+    }
+
+    /// A poll before the remembered deadline does exactly what a full poll does: nothing. Two
+    /// nodes get the same random frames, bus events, sensor samples and polls at random times;
+    /// one forgets its deadline before every poll. Their outputs and deadlines never differ.
+    #[test]
+    fn a_poll_before_the_deadline_is_a_full_poll() {
+        use crate::devices::ap10t::Ap10t;
+        use crate::devices::sgh10::{Sgh10, Variant};
+        use crate::encoder::Encoder;
+        fn frame(x: u32, node: u8) -> Frame {
+            let n = node as u16;
+            let sdo = |cs: u8, index: u16, sub: u8, v: u32| {
+                let [a, b, c, d] = v.to_le_bytes();
+                Frame::std(0x600 + n, &[cs, index as u8, (index >> 8) as u8, sub, a, b, c, d])
+            };
+            match x % 14 {
+                0 => Frame::std(0, &[0x01, 0]),
+                1 => Frame::std(0, &[0x80, 0]),
+                2 => Frame::std(0, &[0x81 + (x >> 8) as u8 % 2, node]),
+                3 => Frame::std(0x80, &[]),
+                4 => Frame::remote(CanId::Std(0x700 + n), 1),
+                5 => sdo(0x2B, 0x1017, 0, (x >> 8) % 300),
+                6 => sdo(0x2B, 0x100C, 0, (x >> 8) % 300),
+                7 => sdo(0x2F, 0x100D, 0, (x >> 8) % 4),
+                8 => sdo(0x2B, 0x1800, 5, (x >> 8) % 200),
+                9 => sdo(0x2F, 0x1800, 2, [1, 254, 255][(x >> 8) as usize % 3]),
+                10 => sdo(0x40, 0x1018, 1, 0),
+                11 => sdo(0x23, 0x1010, 1, 0x6576_6173),
+                12 => Frame::std(0x200 + n, &[(x >> 8) as u8, (x >> 16) as u8, 0, 0, 0, 0, 0, 0]),
+                _ => sdo(0x60, 0, 0, 0),
+            }
+        }
+        fn run<D: CanopenDevice>(make: fn() -> D, sample: fn(&mut D, &mut Context, u32, Instant), seed: u32) {
+            let mut a = Node::new(make(), 1, Bitrate::K500);
+            let mut b = Node::new(make(), 1, Bitrate::K500);
+            let (mut x, mut t) = (seed, 0u64);
+            let mut skipped = 0;
+            for step in 0..4000 {
+                x = x.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                let now = Instant::from_micros(t);
+                match (x >> 28) % 8 {
+                    0..=2 => {
+                        let f = frame(x >> 4, 1);
+                        a.on_frame(&f, now);
+                        b.on_frame(&f, now);
+                    }
+                    3 => {
+                        let (d, c) = a.split();
+                        sample(d, c, x >> 8, now);
+                        let (d, c) = b.split();
+                        sample(d, c, x >> 8, now);
+                    }
+                    4 => {
+                        let e = [BusEvent::ErrorPassive, BusEvent::ErrorActive, BusEvent::BusOffRecovered]
+                            [(x >> 8) as usize % 3];
+                        a.on_bus_event(e, now);
+                        b.on_bus_event(e, now);
+                    }
+                    _ => {
+                        skipped += a.due.is_some_and(|d| d.is_none_or(|d| now < d)) as u32;
+                        a.poll(now);
+                        b.due = None;
+                        b.poll(now);
+                    }
+                }
+                loop {
+                    let (oa, ob) = (a.next_output(), b.next_output());
+                    assert_eq!(oa, ob, "step {step} at {t} µs");
+                    match oa {
+                        Some(Output::Store(_)) => {
+                            a.store_done(Ok(()), now);
+                            b.store_done(Ok(()), now);
+                        }
+                        Some(_) => {}
+                        None => break,
+                    }
+                }
+                assert_eq!(a.next_deadline(), b.deadline(), "step {step} at {t} µs");
+                t += [0, 1, 100, 999, 1000, 7_000, 60_000][(x >> 12) as usize % 7];
+            }
+            assert!(skipped > 100, "{skipped} polls skipped");
+        }
+        for seed in 0..6 {
+            run(|| T, |_, _, _, _| {}, seed);
+            let sample = |d: &mut Sgh10, c: &mut Context, raw: u32, now| {
+                let raw = if raw % 4 == 0 { Err(crate::encoder::SensorFault::Diagnosis) } else { Ok(raw % 3_000_000) };
+                d.on_sample(c, raw, now)
+            };
+            run(|| Sgh10::new(Variant::Sgh10), sample, seed);
+            run(Ap10t::default, |_, _, _, _| {}, seed);
         }
     }
 }
