@@ -126,6 +126,7 @@ pub struct Frame {
 
 impl Frame {
     /// A data frame. Bytes beyond the eighth are dropped.
+    #[inline]
     pub fn new(id: CanId, payload: &[u8]) -> Frame {
         let len = payload.len().min(8);
         let mut data = [0u8; 8];
@@ -134,6 +135,7 @@ impl Frame {
     }
 
     /// A data frame with an 11-bit identifier.
+    #[inline]
     pub fn std(id: u16, payload: &[u8]) -> Frame {
         Frame::new(CanId::Std(id), payload)
     }
@@ -144,6 +146,7 @@ impl Frame {
     }
 
     /// The valid payload bytes (empty for a remote frame).
+    #[inline]
     pub fn payload(&self) -> &[u8] {
         if self.rtr {
             &[]

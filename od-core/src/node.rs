@@ -332,26 +332,38 @@ impl<D: CanopenDevice> Node<D> {
                     self.on_guarding_rtr(now);
                 }
             }
-            _ => match self.pdo.on_frame(&mut self.ctx, self.nmt, frame, now) {
-                PdoEvent::None => {}
-                PdoEvent::Rtr(n) => {
-                    let answer = RtrAnswer::new(&self.pdo, n);
-                    self.device.on_tpdo_rtr(&mut self.ctx, n, &answer, now);
+            _ if !frame.rtr && self.pdo.sync_id() == Some(frame.id) => self.on_sync(now),
+            _ => self.on_pdo_frame(frame, now),
+        }
+    }
+
+    /// A SYNC: the synchronous TPDOs and RPDOs, then the device.
+    #[inline(never)]
+    fn on_sync(&mut self, now: Instant) {
+        if let PdoEvent::Sync { rpdos } = self.pdo.on_sync(&mut self.ctx, self.nmt) {
+            for n in 0..pdo::MAX_RPDOS as u8 {
+                if rpdos & (1 << n) != 0 {
+                    self.device.on_rpdo(&mut self.ctx, n, now);
                 }
-                PdoEvent::Sync { rpdos } => {
-                    for n in 0..pdo::MAX_RPDOS as u8 {
-                        if rpdos & (1 << n) != 0 {
-                            self.device.on_rpdo(&mut self.ctx, n, now);
-                        }
-                    }
-                    self.device.on_sync(&mut self.ctx, now);
-                }
-                PdoEvent::Rpdo(n) => self.device.on_rpdo(&mut self.ctx, n, now),
-                PdoEvent::RpdoRtr(n) => {
-                    let reply = RtrReply::new(&self.pdo, n);
-                    self.device.on_rpdo_rtr(&mut self.ctx, n, &reply, now);
-                }
-            },
+            }
+            self.device.on_sync(&mut self.ctx, now);
+        }
+    }
+
+    /// An RPDO or a PDO remote request.
+    #[inline(never)]
+    fn on_pdo_frame(&mut self, frame: &Frame, now: Instant) {
+        match self.pdo.on_frame(&mut self.ctx, self.nmt, frame, now) {
+            PdoEvent::None | PdoEvent::Sync { .. } => {}
+            PdoEvent::Rtr(n) => {
+                let answer = RtrAnswer::new(&self.pdo, n);
+                self.device.on_tpdo_rtr(&mut self.ctx, n, &answer, now);
+            }
+            PdoEvent::Rpdo(n) => self.device.on_rpdo(&mut self.ctx, n, now),
+            PdoEvent::RpdoRtr(n) => {
+                let reply = RtrReply::new(&self.pdo, n);
+                self.device.on_rpdo_rtr(&mut self.ctx, n, &reply, now);
+            }
         }
     }
 

@@ -371,6 +371,7 @@ impl Entry {
     }
 
     /// The inclusive value limits, in the type's numeric range, if the entry has any.
+    #[inline]
     pub const fn limits(&self) -> Option<(i64, i64)> {
         if self.limits.set {
             Some((self.dtype.to_i64(self.limits.lo), self.dtype.to_i64(self.limits.hi)))
@@ -459,6 +460,7 @@ impl Od {
     }
 
     /// The declaration at position `pos`.
+    #[inline]
     pub fn entry(&self, pos: usize) -> &'static Entry {
         &self.table[pos]
     }
@@ -482,11 +484,13 @@ impl Od {
     }
 
     /// Raw value at `pos`.
+    #[inline]
     pub fn get(&self, pos: usize) -> u32 {
         self.values[pos]
     }
 
     /// Sets the raw value at `pos`, with no checks (the device's own updates).
+    #[inline]
     pub fn set(&mut self, pos: usize, value: u32) {
         self.values[pos] = value;
     }
@@ -535,6 +539,7 @@ impl Od {
     }
 
     /// Checks that `pos` may be read by an SDO client.
+    #[inline]
     pub fn check_read(&self, pos: usize) -> Result<(), Abort> {
         match self.table[pos].access {
             Access::PdoOnly => Err(Abort::UNSUPPORTED_ACCESS),
@@ -545,6 +550,7 @@ impl Od {
 
     /// Decodes `data` written by an SDO client to `pos` and checks access, length and
     /// limits; returns the raw value to store. Nothing is changed.
+    #[inline]
     pub fn check_write(&self, pos: usize, data: &[u8]) -> Result<u32, Abort> {
         let e = &self.table[pos];
         if e.access == Access::PdoOnly {

@@ -300,6 +300,7 @@ impl Pdos {
     }
 
     /// The SYNC identifier (1005h), if the node has one.
+    #[inline]
     pub fn sync_id(&self) -> Option<CanId> {
         self.sync
     }
@@ -426,7 +427,10 @@ impl Pdos {
         PdoEvent::None
     }
 
-    fn on_sync(&mut self, ctx: &mut Context, nmt: NmtState) -> PdoEvent {
+    /// Handles a SYNC (the caller has matched the frame with [`Pdos::sync_id`]): sends the
+    /// synchronous TPDOs that are due and applies the synchronous RPDOs received;
+    /// [`PdoEvent::Sync`] names them, or [`PdoEvent::None`] when the node ignores SYNC (STOPPED).
+    pub fn on_sync(&mut self, ctx: &mut Context, nmt: NmtState) -> PdoEvent {
         let p = &mut *self;
         if !p.running {
             // PRE-OPERATIONAL consumes SYNC (the device may use it); STOPPED does not.
