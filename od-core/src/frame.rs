@@ -18,6 +18,16 @@ impl CanId {
         }
     }
 
+    /// The identifier as one number, the format in bit 31 (set for 29-bit): what a hot path
+    /// compares in one instruction. No identifier has the key `u32::MAX`.
+    #[inline(always)]
+    pub const fn key(self) -> u32 {
+        match self {
+            CanId::Std(id) => id as u32,
+            CanId::Ext(id) => id | 1 << 31,
+        }
+    }
+
     /// The identifier a CANopen COB-ID entry (1005h, 1014h, 18xxh.01 ...) designates:
     /// bit 29 selects the 29-bit format, the low bits are the identifier.
     pub const fn from_cob_id(cob_id: u32) -> CanId {

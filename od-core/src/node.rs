@@ -332,7 +332,7 @@ impl<D: CanopenDevice> Node<D> {
                     self.on_guarding_rtr(now);
                 }
             }
-            _ if !frame.rtr && self.pdo.sync_id() == Some(frame.id) => self.on_sync(now),
+            _ if self.pdo.is_sync(frame) => self.on_sync(now),
             _ => self.on_pdo_frame(frame, now),
         }
     }
