@@ -932,7 +932,7 @@ fn pack(od: &Od, map: &Mapping) -> [u8; 8] {
     let mut data = [0u8; 8];
     data.copy_from_slice(&buf[..8]);
     // Bytes past the payload are zero (`Frame::data` contract).
-    let keep = u64::MAX.checked_shr(64 - 8 * map.len.min(8) as u32).unwrap_or(0);
+    let keep = if map.len >= 8 { u64::MAX } else { (1u64 << (8 * map.len)) - 1 };
     (u64::from_le_bytes(data) & keep).to_le_bytes()
 }
 
