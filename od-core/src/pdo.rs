@@ -460,6 +460,7 @@ impl Pdos {
     /// Handles a SYNC (the caller has matched the frame with [`Pdos::sync_id`]): sends the
     /// synchronous TPDOs that are due and applies the synchronous RPDOs received;
     /// [`PdoEvent::Sync`] names them, or [`PdoEvent::None`] when the node ignores SYNC (STOPPED).
+    #[inline(always)]
     pub fn on_sync(&mut self, ctx: &mut Context, nmt: NmtState) -> PdoEvent {
         let p = &mut *self;
         if !p.running {
