@@ -8,7 +8,7 @@
 //! one probe); the sub-index is then the row `first + sub` whenever the object's sub-indices are
 //! dense from 0 (all of them but the rare gapped arrays), else a scan of that object's own rows.
 //!
-//! The table has [`SLOTS`] one-byte slots (a position, or [`EMPTY`]) and is built once at
+//! The table has [`SLOTS`] one-byte slots (a position, or 255 for none) and is built once at
 //! start-up: [`SLOTS`] bytes of RAM for a lookup that costs the same for every entry.
 
 use crate::abort::Abort;

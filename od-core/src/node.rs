@@ -894,7 +894,11 @@ mod tests {
         for seed in 0..6 {
             run(|| T, |_, _, _, _| {}, seed);
             let sample = |d: &mut Sgh10, c: &mut Context, raw: u32, now| {
-                let raw = if raw % 4 == 0 { Err(crate::encoder::SensorFault::Diagnosis) } else { Ok(raw % 3_000_000) };
+                let raw = if raw.is_multiple_of(4) {
+                    Err(crate::encoder::SensorFault::Diagnosis)
+                } else {
+                    Ok(raw % 3_000_000)
+                };
                 d.on_sample(c, raw, now)
             };
             run(|| Sgh10::new(Variant::Sgh10), sample, seed);
