@@ -79,6 +79,7 @@ pub fn read_short(ctx: &Context, index: u16, sub: u8) -> Result<Option<([u8; 4],
 }
 
 /// Checks and writes `data` to (index, sub). Nothing changes on `Err`.
+#[inline]
 pub fn write(
     ctx: &mut Context,
     device: &mut impl Device,

@@ -21,6 +21,7 @@ pub mod guarding;
 pub mod heartbeat;
 pub mod j1939;
 pub mod led;
+pub mod lookup;
 pub mod lss;
 pub mod nmt;
 pub mod node;

@@ -14,7 +14,7 @@ use crate::autobaud::Scan;
 use crate::bitrate::Bitrate;
 use crate::context::Written;
 use crate::emcy;
-use crate::frame::{CanId, Frame, RxId};
+use crate::frame::{CanId, Frame, RxFilter, RxId};
 use crate::guarding::Guarding;
 use crate::heartbeat::Heartbeat;
 use crate::lss::{self, Lss, LssEvent};
@@ -45,6 +45,13 @@ pub struct Node<D: CanopenDevice> {
     lss: Lss,
     /// The automatic bit-rate detection under way (before the boot-up).
     scan: Option<Scan>,
+    /// The receive list as a quick filter, and the [`Node::rx_ids_generation`] it was built
+    /// for (rebuilt on the first frame after a change).
+    filter: (RxFilter, u32),
+    /// [`Node::next_deadline`] as the last poll left it, while nothing else has touched the
+    /// node since (`None`: something has, compute it afresh). A poll before it has nothing to
+    /// do (issue 14's W4, the firmware's idle tick).
+    due: Option<Option<Instant>>,
 }
 
 /// The CANopen services whose rules the dictionary access path applies to their entries,
@@ -157,7 +164,10 @@ impl<D: CanopenDevice> Node<D> {
             pdo: Pdos::default(),
             lss,
             scan,
+            filter: (RxFilter::OPEN, 0),
+            due: None,
         };
+        node.filter = (RxFilter::new(&node.rx_ids()), node.rx_ids_generation());
         node.notify();
         node
     }
@@ -179,6 +189,7 @@ impl<D: CanopenDevice> Node<D> {
 
     /// The device and the context together, for the shell's sensor samples and key presses.
     pub fn split(&mut self) -> (&mut D, &mut Context) {
+        self.due = None;
         (&mut self.device, &mut self.ctx)
     }
 
@@ -245,9 +256,28 @@ impl<D: CanopenDevice> Node<D> {
     }
 
     /// Handles one received frame.
+    #[inline]
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
-        // A frame received without error during the bit-rate detection proves the rate: the
-        // node takes it (as its pending code, which a 1010h save keeps) and boots up.
+        // A frame received without error during the bit-rate detection proves the rate.
+        if self.scan.is_some() {
+            return self.on_scan_frame();
+        }
+        // Frames for other nodes stop here (the node acts only on its receive list), in a
+        // few instructions before the full dispatch's.
+        if self.filter.1 != self.rx_ids_generation() {
+            self.rebuild_filter();
+        }
+        if self.filter.0.passes(frame.id) {
+            self.dispatch(frame, now);
+        }
+    }
+
+    /// The bit-rate detection's first frame: the node takes its rate (as its pending code,
+    /// which a 1010h save keeps) and boots up.
+    #[cold]
+    #[inline(never)]
+    fn on_scan_frame(&mut self) {
+        self.due = None;
         if let Some(scan) = self.scan.take() {
             let rate = scan.rate();
             self.ctx.bitrate = rate;
@@ -255,8 +285,19 @@ impl<D: CanopenDevice> Node<D> {
             if let (Some(pos), Some(code)) = (self.ctx.od.find_hook(CoreHook::PendingBitrate), code) {
                 self.ctx.od.set(pos, code);
             }
-            return;
         }
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn rebuild_filter(&mut self) {
+        self.filter = (RxFilter::new(&self.rx_ids()), self.rx_ids_generation());
+    }
+
+    /// A frame on the receive list (or one the quick filter could not tell from it).
+    #[inline(never)]
+    fn dispatch(&mut self, frame: &Frame, now: Instant) {
+        self.due = None;
         // LSS works in every NMT state and without a node-ID (CiA 305).
         if frame.id == CanId::Std(lss::RX_ID) && self.lss.enabled() {
             let event = self.lss.on_frame(&mut self.ctx, frame, now);
@@ -291,26 +332,38 @@ impl<D: CanopenDevice> Node<D> {
                     self.on_guarding_rtr(now);
                 }
             }
-            _ => match self.pdo.on_frame(&mut self.ctx, self.nmt, frame, now) {
-                PdoEvent::None => {}
-                PdoEvent::Rtr(n) => {
-                    let answer = RtrAnswer::new(&self.pdo, n);
-                    self.device.on_tpdo_rtr(&mut self.ctx, n, &answer, now);
+            _ if self.pdo.is_sync(frame) => self.on_sync(now),
+            _ => self.on_pdo_frame(frame, now),
+        }
+    }
+
+    /// A SYNC: the synchronous TPDOs and RPDOs, then the device.
+    #[inline(never)]
+    fn on_sync(&mut self, now: Instant) {
+        if let PdoEvent::Sync { rpdos } = self.pdo.on_sync(&mut self.ctx, self.nmt) {
+            for n in 0..pdo::MAX_RPDOS as u8 {
+                if rpdos & (1 << n) != 0 {
+                    self.device.on_rpdo(&mut self.ctx, n, now);
                 }
-                PdoEvent::Sync { rpdos } => {
-                    for n in 0..pdo::MAX_RPDOS as u8 {
-                        if rpdos & (1 << n) != 0 {
-                            self.device.on_rpdo(&mut self.ctx, n, now);
-                        }
-                    }
-                    self.device.on_sync(&mut self.ctx, now);
-                }
-                PdoEvent::Rpdo(n) => self.device.on_rpdo(&mut self.ctx, n, now),
-                PdoEvent::RpdoRtr(n) => {
-                    let reply = RtrReply::new(&self.pdo, n);
-                    self.device.on_rpdo_rtr(&mut self.ctx, n, &reply, now);
-                }
-            },
+            }
+            self.device.on_sync(&mut self.ctx, now);
+        }
+    }
+
+    /// An RPDO or a PDO remote request.
+    #[inline(never)]
+    fn on_pdo_frame(&mut self, frame: &Frame, now: Instant) {
+        match self.pdo.on_frame(&mut self.ctx, self.nmt, frame, now) {
+            PdoEvent::None | PdoEvent::Sync { .. } => {}
+            PdoEvent::Rtr(n) => {
+                let answer = RtrAnswer::new(&self.pdo, n);
+                self.device.on_tpdo_rtr(&mut self.ctx, n, &answer, now);
+            }
+            PdoEvent::Rpdo(n) => self.device.on_rpdo(&mut self.ctx, n, now),
+            PdoEvent::RpdoRtr(n) => {
+                let reply = RtrReply::new(&self.pdo, n);
+                self.device.on_rpdo_rtr(&mut self.ctx, n, &reply, now);
+            }
         }
     }
 
@@ -318,11 +371,26 @@ impl<D: CanopenDevice> Node<D> {
     /// raises or clears its EMCYs. EMCYs raised while the node cannot send (bus-off, STOPPED)
     /// follow the EMCY producer's rules.
     pub fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.due = None;
         self.device.on_bus_event(&mut self.ctx, event, now);
     }
 
     /// Runs the timers due at `now`.
+    #[inline]
     pub fn poll(&mut self, now: Instant) {
+        // Nothing has touched the node since the last poll, and its next deadline is later:
+        // nothing to do.
+        if let Some(due) = self.due {
+            if due.is_none_or(|d| now < d) {
+                return;
+            }
+        }
+        self.poll_all(now);
+        self.due = Some(self.deadline());
+    }
+
+    #[inline(never)]
+    fn poll_all(&mut self, now: Instant) {
         if let Some(scan) = &mut self.scan {
             let first = scan.next_deadline() == Instant::ZERO;
             if let Some(rate) = scan.poll(now).or(first.then(|| scan.rate())) {
@@ -381,10 +449,21 @@ impl<D: CanopenDevice> Node<D> {
         }
     }
 
-    /// When [`Node::poll`] must next run; `None` when nothing is scheduled.
+    /// When [`Node::poll`] must next run; `None` when nothing is scheduled. A poll before it
+    /// does nothing.
+    #[inline]
     pub fn next_deadline(&self) -> Option<Instant> {
+        match self.due {
+            Some(due) => due,
+            None => self.deadline(),
+        }
+    }
+
+    #[inline(never)]
+    fn deadline(&self) -> Option<Instant> {
         if let Some(scan) = &self.scan {
-            return Some(scan.next_deadline());
+            // The device runs meanwhile (the AP10T's display test).
+            return earliest(Some(scan.next_deadline()), self.device.next_deadline());
         }
         if self.device.has_requests() {
             return Some(Instant::ZERO);
@@ -435,6 +514,7 @@ impl<D: CanopenDevice> Node<D> {
     /// The shell has finished (or failed) the [`Output::Store`] it was given.
     /// The result goes to whoever asked: LSS store configuration, else the SDO server (1010h).
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.due = None;
         self.ctx.store_done(result.is_ok(), now);
         if self.lss.store_done(&mut self.ctx, result.is_ok()) {
             return;
@@ -548,6 +628,7 @@ impl<D: CanopenDevice> Node<D> {
     /// for a device's own user interface and for tests. Nothing changes on `Err`. A 1010h save
     /// answers `Written::Deferred` and completes at [`Node::store_done`].
     pub fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
+        self.due = None;
         let Node { ctx, device, nmt, heartbeat, guarding, pdo, lss, .. } = self;
         let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
         access::write(ctx, device, &mut services, index, sub, data, now)
@@ -556,6 +637,7 @@ impl<D: CanopenDevice> Node<D> {
     /// Test access to the parts (a service's state beside the context).
     #[cfg(test)]
     pub(crate) fn parts(&mut self) -> (&mut Context, &mut NmtState, &mut Pdos) {
+        self.due = None;
         (&mut self.ctx, &mut self.nmt, &mut self.pdo)
     }
 }
@@ -619,7 +701,7 @@ impl<D: CanopenDevice> DeviceStation for Node<D> {
         &self.device
     }
     fn split(&mut self) -> (&mut D, &mut Context) {
-        (&mut self.device, &mut self.ctx)
+        Node::split(self)
     }
 }
 
@@ -660,5 +742,167 @@ mod tests {
         assert_eq!(rtr(&mut node, 10), None);
         node.write(0x1017, 0, &0u16.to_le_bytes(), at(20)).unwrap();
         assert_eq!(rtr(&mut node, 30), Some(0xFF));
+    }
+
+    /// The receive list changes only with its generation, whatever the bus does: the shell's
+    /// acceptance filters and the node's own quick filter rely on it. Random sequences of the
+    /// frames that move it (NMT resets, LSS node-ID and store, 1005h, PDO COB-IDs with their
+    /// valid and RTR bits), on the SGH10 and the AP10T (which has RPDOs).
+    #[test]
+    fn receive_list_changes_only_with_its_generation() {
+        use crate::devices::ap10t::Ap10t;
+        fn sdo(node: u8, index: u16, sub: u8, v: u32) -> Frame {
+            let [a, b, c, d] = v.to_le_bytes();
+            Frame::std(0x600 + node as u16, &[0x23, index as u8, (index >> 8) as u8, sub, a, b, c, d])
+        }
+        fn frames(node: u8) -> [Frame; 16] {
+            [
+                Frame::std(0, &[0x01, 0]),
+                Frame::std(0, &[0x80, 0]),
+                Frame::std(0, &[0x82, node]),
+                Frame::std(0, &[0x81, 0]),
+                sdo(node, 0x1005, 0, 0x81),
+                sdo(node, 0x1005, 0, 0x80),
+                sdo(node, 0x1400, 1, 0x8000_0200 + node as u32),
+                sdo(node, 0x1400, 1, 0x0000_0200 + node as u32),
+                sdo(node, 0x1400, 1, 0x0000_0333),
+                sdo(node, 0x1800, 1, 0x8000_0180 + node as u32),
+                sdo(node, 0x1800, 1, 0x4000_0180 + node as u32),
+                sdo(node, 0x1800, 1, 0x0000_0180 + node as u32),
+                Frame::std(0x7E5, &[0x04, 1, 0, 0, 0, 0, 0, 0]),
+                Frame::std(0x7E5, &[0x11, 7, 0, 0, 0, 0, 0, 0]),
+                Frame::std(0x7E5, &[0x17, 0, 0, 0, 0, 0, 0, 0]),
+                Frame::std(0x7E5, &[0x04, 0, 0, 0, 0, 0, 0, 0]),
+            ]
+        }
+        fn run<D: CanopenDevice>(mut node: Node<D>, seed: u32) {
+            let mut x = seed;
+            let mut t = 0;
+            let mut seen = (node.rx_ids_generation(), node.rx_ids());
+            let mut changes = 0;
+            for _ in 0..3000 {
+                x = x.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                let id = if x >> 31 == 0 { node.context().node_id } else { 7 };
+                let f = frames(id)[(x >> 16) as usize % 16];
+                t += 1 + (x >> 8) as u64 % 50;
+                let now = Instant::from_millis(t);
+                node.on_frame(&f, now);
+                node.poll(now);
+                while let Some(out) = node.next_output() {
+                    if let Output::Store(_) = out {
+                        node.store_done(Ok(()), now);
+                    }
+                }
+                let now_ids = (node.rx_ids_generation(), node.rx_ids());
+                if now_ids.0 == seen.0 {
+                    assert_eq!(now_ids.1, seen.1, "receive list changed under generation {} after {f:?}", seen.0);
+                }
+                changes += (now_ids.1 != seen.1) as u32;
+                let filter = RxFilter::new(&now_ids.1);
+                assert!(now_ids.1.iter().all(|r| filter.passes(r.id)));
+                seen = now_ids;
+            }
+            assert!(changes > 20, "the sequence moved the receive list {changes} times");
+        }
+        for seed in 0..8 {
+            run(Node::new(T, 1, Bitrate::K500), seed);
+            run(Node::new(Ap10t::default(), 1, Bitrate::K500), seed);
+        }
+    }
+
+    /// A poll before the remembered deadline does exactly what a full poll does: nothing. Two
+    /// nodes get the same random frames, bus events, sensor samples and polls at random times;
+    /// one forgets its deadline before every poll. Their outputs and deadlines never differ.
+    #[test]
+    fn a_poll_before_the_deadline_is_a_full_poll() {
+        use crate::devices::ap10t::Ap10t;
+        use crate::devices::sgh10::{Sgh10, Variant};
+        use crate::encoder::Encoder;
+        fn frame(x: u32, node: u8) -> Frame {
+            let n = node as u16;
+            let sdo = |cs: u8, index: u16, sub: u8, v: u32| {
+                let [a, b, c, d] = v.to_le_bytes();
+                Frame::std(0x600 + n, &[cs, index as u8, (index >> 8) as u8, sub, a, b, c, d])
+            };
+            match x % 14 {
+                0 => Frame::std(0, &[0x01, 0]),
+                1 => Frame::std(0, &[0x80, 0]),
+                2 => Frame::std(0, &[0x81 + (x >> 8) as u8 % 2, node]),
+                3 => Frame::std(0x80, &[]),
+                4 => Frame::remote(CanId::Std(0x700 + n), 1),
+                5 => sdo(0x2B, 0x1017, 0, (x >> 8) % 300),
+                6 => sdo(0x2B, 0x100C, 0, (x >> 8) % 300),
+                7 => sdo(0x2F, 0x100D, 0, (x >> 8) % 4),
+                8 => sdo(0x2B, 0x1800, 5, (x >> 8) % 200),
+                9 => sdo(0x2F, 0x1800, 2, [1, 254, 255][(x >> 8) as usize % 3]),
+                10 => sdo(0x40, 0x1018, 1, 0),
+                11 => sdo(0x23, 0x1010, 1, 0x6576_6173),
+                12 => Frame::std(0x200 + n, &[(x >> 8) as u8, (x >> 16) as u8, 0, 0, 0, 0, 0, 0]),
+                _ => sdo(0x60, 0, 0, 0),
+            }
+        }
+        fn run<D: CanopenDevice>(make: fn() -> D, sample: fn(&mut D, &mut Context, u32, Instant), seed: u32) {
+            let mut a = Node::new(make(), 1, Bitrate::K500);
+            let mut b = Node::new(make(), 1, Bitrate::K500);
+            let (mut x, mut t) = (seed, 0u64);
+            let mut skipped = 0;
+            for step in 0..4000 {
+                x = x.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                let now = Instant::from_micros(t);
+                match (x >> 28) % 8 {
+                    0..=2 => {
+                        let f = frame(x >> 4, 1);
+                        a.on_frame(&f, now);
+                        b.on_frame(&f, now);
+                    }
+                    3 => {
+                        let (d, c) = a.split();
+                        sample(d, c, x >> 8, now);
+                        let (d, c) = b.split();
+                        sample(d, c, x >> 8, now);
+                    }
+                    4 => {
+                        let e = [BusEvent::ErrorPassive, BusEvent::ErrorActive, BusEvent::BusOffRecovered]
+                            [(x >> 8) as usize % 3];
+                        a.on_bus_event(e, now);
+                        b.on_bus_event(e, now);
+                    }
+                    _ => {
+                        skipped += a.due.is_some_and(|d| d.is_none_or(|d| now < d)) as u32;
+                        a.poll(now);
+                        b.due = None;
+                        b.poll(now);
+                    }
+                }
+                loop {
+                    let (oa, ob) = (a.next_output(), b.next_output());
+                    assert_eq!(oa, ob, "step {step} at {t} µs");
+                    match oa {
+                        Some(Output::Store(_)) => {
+                            a.store_done(Ok(()), now);
+                            b.store_done(Ok(()), now);
+                        }
+                        Some(_) => {}
+                        None => break,
+                    }
+                }
+                assert_eq!(a.next_deadline(), b.deadline(), "step {step} at {t} µs");
+                t += [0, 1, 100, 999, 1000, 7_000, 60_000][(x >> 12) as usize % 7];
+            }
+            assert!(skipped > 100, "{skipped} polls skipped");
+        }
+        for seed in 0..6 {
+            run(|| T, |_, _, _, _| {}, seed);
+            let sample = |d: &mut Sgh10, c: &mut Context, raw: u32, now| {
+                let raw = if raw.is_multiple_of(4) {
+                    Err(crate::encoder::SensorFault::Diagnosis)
+                } else {
+                    Ok(raw % 3_000_000)
+                };
+                d.on_sample(c, raw, now)
+            };
+            run(|| Sgh10::new(Variant::Sgh10), sample, seed);
+            run(Ap10t::default, |_, _, _, _| {}, seed);
+        }
     }
 }

@@ -10,6 +10,7 @@
 //! declaration itself.
 
 use crate::abort::Abort;
+use crate::lookup::Lookup;
 
 /// CiA 301 data types used by the devices, with their CiA 301 type codes as discriminants.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -370,6 +371,7 @@ impl Entry {
     }
 
     /// The inclusive value limits, in the type's numeric range, if the entry has any.
+    #[inline]
     pub const fn limits(&self) -> Option<(i64, i64)> {
         if self.limits.set {
             Some((self.dtype.to_i64(self.limits.lo), self.dtype.to_i64(self.limits.hi)))
@@ -426,11 +428,13 @@ impl Entry {
 
 /// Most entries any device dictionary holds; checked when an [`Od`] is built.
 pub const MAX_ENTRIES: usize = 160;
+const _: () = assert!(MAX_ENTRIES <= crate::lookup::MAX_ROWS);
 
 /// A device's dictionary: the static declarations and their current values.
 #[derive(Clone)]
 pub struct Od {
     table: &'static [Entry],
+    lookup: Lookup,
     values: [u32; MAX_ENTRIES],
 }
 
@@ -445,7 +449,7 @@ impl Od {
             table.windows(2).all(|w| (w[0].index, w[0].sub) < (w[1].index, w[1].sub)),
             "dictionary not sorted by (index, sub)"
         );
-        let mut od = Od { table, values: [0; MAX_ENTRIES] };
+        let mut od = Od { table, lookup: Lookup::new(table), values: [0; MAX_ENTRIES] };
         od.load_defaults(|_| true, node_id);
         od
     }
@@ -456,26 +460,16 @@ impl Od {
     }
 
     /// The declaration at position `pos`.
+    #[inline]
     pub fn entry(&self, pos: usize) -> &'static Entry {
         &self.table[pos]
     }
 
     /// Position of (index, sub), or the abort code an SDO client gets for it:
     /// 06020000h when no entry has that index, 06090011h when the index exists but not the sub.
+    #[inline]
     pub fn find(&self, index: u16, sub: u8) -> Result<usize, Abort> {
-        // One integer compare per step: (index, sub) packed as index << 8 | sub.
-        let key = (index as u32) << 8 | sub as u32;
-        match self.table.binary_search_by_key(&key, |e| (e.index as u32) << 8 | e.sub as u32) {
-            Ok(pos) => Ok(pos),
-            Err(at) => {
-                let near = |p: usize| self.table.get(p).is_some_and(|e| e.index == index);
-                if near(at) || (at > 0 && near(at - 1)) {
-                    Err(Abort::NO_SUBINDEX)
-                } else {
-                    Err(Abort::NO_OBJECT)
-                }
-            }
-        }
+        self.lookup.find(self.table, index, sub)
     }
 
     /// Position of (index, sub), if declared.
@@ -490,11 +484,13 @@ impl Od {
     }
 
     /// Raw value at `pos`.
+    #[inline]
     pub fn get(&self, pos: usize) -> u32 {
         self.values[pos]
     }
 
     /// Sets the raw value at `pos`, with no checks (the device's own updates).
+    #[inline]
     pub fn set(&mut self, pos: usize, value: u32) {
         self.values[pos] = value;
     }
@@ -543,6 +539,7 @@ impl Od {
     }
 
     /// Checks that `pos` may be read by an SDO client.
+    #[inline]
     pub fn check_read(&self, pos: usize) -> Result<(), Abort> {
         match self.table[pos].access {
             Access::PdoOnly => Err(Abort::UNSUPPORTED_ACCESS),
@@ -553,6 +550,7 @@ impl Od {
 
     /// Decodes `data` written by an SDO client to `pos` and checks access, length and
     /// limits; returns the raw value to store. Nothing is changed.
+    #[inline]
     pub fn check_write(&self, pos: usize, data: &[u8]) -> Result<u32, Abort> {
         let e = &self.table[pos];
         if e.access == Access::PdoOnly {

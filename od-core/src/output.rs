@@ -37,11 +37,23 @@ const CONTROL_SLOTS: usize = 2;
 /// control outputs.
 pub const OUTBOX_DEPTH: usize = WORST_CALL_FRAMES + CONTROL_SLOTS;
 
-/// Outputs waiting for the shell.
-#[derive(Clone, Default)]
+/// Outputs waiting for the shell: a ring of [`OUTBOX_DEPTH`] slots (a plain array with a head
+/// and a length: a push or a pop is a compare, a copy and an index update).
+#[derive(Clone)]
 pub struct Outbox {
-    q: heapless::Deque<Output, OUTBOX_DEPTH>,
+    q: [Output; OUTBOX_DEPTH],
+    head: u8,
+    len: u8,
     dropped: u32,
+}
+
+const _: () = assert!(OUTBOX_DEPTH < u8::MAX as usize);
+
+impl Default for Outbox {
+    fn default() -> Self {
+        // The filler is never read: only the `len` slots from `head` hold outputs.
+        Outbox { q: [Output::SetBitrate(Bitrate::K500); OUTBOX_DEPTH], head: 0, len: 0, dropped: 0 }
+    }
 }
 
 impl Outbox {
@@ -49,29 +61,46 @@ impl Outbox {
     /// the queue for several calls) is dropped and counted ([`Outbox::dropped`]), the oldest
     /// frames kept, as a full CAN transmit mailbox would; a [`Output::Store`] or
     /// [`Output::SetBitrate`] always has a slot of its own and is never dropped.
+    #[inline]
     pub fn push(&mut self, out: Output) {
+        let len = self.len as usize;
         let room = match out {
-            Output::Frame(_) => self.q.len() < WORST_CALL_FRAMES,
-            Output::Store(_) | Output::SetBitrate(_) => true,
+            Output::Frame(_) => len < WORST_CALL_FRAMES,
+            Output::Store(_) | Output::SetBitrate(_) => len < OUTBOX_DEPTH,
         };
-        if !room || self.q.push_back(out).is_err() {
+        if !room {
             self.dropped = self.dropped.wrapping_add(1);
+            return;
         }
+        let mut at = self.head as usize + len;
+        if at >= OUTBOX_DEPTH {
+            at -= OUTBOX_DEPTH;
+        }
+        self.q[at] = out;
+        self.len += 1;
     }
 
     /// Queues a frame.
+    #[inline]
     pub fn send(&mut self, frame: Frame) {
         self.push(Output::Frame(frame));
     }
 
     /// Takes the oldest output.
+    #[inline]
     pub fn pop(&mut self) -> Option<Output> {
-        self.q.pop_front()
+        if self.len == 0 {
+            return None;
+        }
+        let out = self.q[self.head as usize];
+        self.head = if self.head as usize + 1 == OUTBOX_DEPTH { 0 } else { self.head + 1 };
+        self.len -= 1;
+        Some(out)
     }
 
     /// Nothing waiting?
     pub fn is_empty(&self) -> bool {
-        self.q.is_empty()
+        self.len == 0
     }
 
     /// How many outputs were dropped because the shell had not drained the queue (wraps at
@@ -110,5 +139,30 @@ mod tests {
         assert_eq!(out.pop(), Some(Output::Store(GroupMask::ALL)));
         assert_eq!(out.pop(), Some(Output::SetBitrate(Bitrate::K125)));
         assert!(out.is_empty());
+    }
+
+    #[test]
+    fn the_ring_keeps_order_across_its_end() {
+        let mut out = Outbox::default();
+        let mut next_in = 0u32;
+        let mut next_out = 0u32;
+        for round in 0..200u32 {
+            for _ in 0..round % 5 {
+                out.push(frame(next_in as u8));
+                next_in += 1;
+            }
+            for _ in 0..(round * 3) % 7 {
+                match out.pop() {
+                    Some(f) => {
+                        assert_eq!(f, frame(next_out as u8));
+                        next_out += 1;
+                    }
+                    None => assert_eq!(next_out, next_in),
+                }
+            }
+            assert_eq!(out.is_empty(), next_in == next_out);
+        }
+        assert_eq!(out.dropped(), 0);
+        assert!(next_out > 100);
     }
 }

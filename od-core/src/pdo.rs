@@ -238,6 +238,12 @@ impl Rpdo {
 pub struct Pdos {
     /// SYNC identifier (1005h), if the node consumes SYNC.
     sync: Option<CanId>,
+    /// [`CanId::key`] of `sync`, `u32::MAX` without one.
+    sync_key: u32,
+    /// The TPDOs a SYNC concerns (valid, mapped, type 1..=240 or FCh), one bit each: a SYNC
+    /// visits only them. Kept by [`Pdos::reset`] and [`Pdos::on_write`], which alone change
+    /// those three.
+    sync_tx: u8,
     tpdo: [Tpdo; MAX_TPDOS],
     ntpdo: u8,
     rpdo: [Rpdo; MAX_RPDOS],
@@ -254,6 +260,8 @@ impl Default for Pdos {
     fn default() -> Pdos {
         Pdos {
             sync: None,
+            sync_key: u32::MAX,
+            sync_tx: 0,
             tpdo: [Tpdo::EMPTY; MAX_TPDOS],
             ntpdo: 0,
             rpdo: [Rpdo::EMPTY; MAX_RPDOS],
@@ -299,7 +307,29 @@ impl Pdos {
         }
     }
 
+    fn refresh_sync_tx(&mut self) {
+        let mut mask = 0;
+        for (n, t) in self.tpdos().iter().enumerate() {
+            if t.valid && t.map.ok && matches!(t.ttype, 1..=240 | TYPE_SYNC_RTR) {
+                mask |= 1 << n;
+            }
+        }
+        self.sync_tx = mask;
+    }
+
+    fn set_sync(&mut self, id: Option<CanId>) {
+        self.sync = id;
+        self.sync_key = id.map_or(u32::MAX, CanId::key);
+    }
+
+    /// Is `frame` a SYNC (a data frame on the 1005h identifier)?
+    #[inline(always)]
+    pub fn is_sync(&self, frame: &Frame) -> bool {
+        frame.id.key() == self.sync_key && !frame.rtr
+    }
+
     /// The SYNC identifier (1005h), if the node has one.
+    #[inline]
     pub fn sync_id(&self) -> Option<CanId> {
         self.sync
     }
@@ -326,7 +356,7 @@ impl Pdos {
         let p = &mut *self;
         let generation = p.generation.wrapping_add(1);
         *p = Pdos { generation, ..Pdos::default() };
-        p.sync = od.pos(0x1005, 0).map(|pos| CanId::from_cob_id(od.get(pos)));
+        p.set_sync(od.pos(0x1005, 0).map(|pos| CanId::from_cob_id(od.get(pos))));
         for n in 0..MAX_TPDOS as u16 {
             let Some(params) = Params::load(od, 0x1800 + n) else { break };
             let cob = od.get(params.cob as usize);
@@ -355,6 +385,7 @@ impl Pdos {
             set_rpdo_cob(r, cob);
             p.nrpdo += 1;
         }
+        p.refresh_sync_tx();
     }
 
     /// Starts or stops the PDOs after an NMT state change: entering OPERATIONAL restarts the SYNC
@@ -381,7 +412,7 @@ impl Pdos {
 
     /// Handles a frame that may be a SYNC, an RPDO or a PDO remote request.
     pub fn on_frame(&mut self, ctx: &mut Context, nmt: NmtState, frame: &Frame, now: Instant) -> PdoEvent {
-        if self.sync == Some(frame.id) && !frame.rtr {
+        if self.is_sync(frame) {
             return self.on_sync(ctx, nmt);
         }
         if !self.running {
@@ -426,16 +457,20 @@ impl Pdos {
         PdoEvent::None
     }
 
-    fn on_sync(&mut self, ctx: &mut Context, nmt: NmtState) -> PdoEvent {
+    /// Handles a SYNC (the caller has matched the frame with [`Pdos::sync_id`]): sends the
+    /// synchronous TPDOs that are due and applies the synchronous RPDOs received;
+    /// [`PdoEvent::Sync`] names them, or [`PdoEvent::None`] when the node ignores SYNC (STOPPED).
+    #[inline(always)]
+    pub fn on_sync(&mut self, ctx: &mut Context, nmt: NmtState) -> PdoEvent {
         let p = &mut *self;
         if !p.running {
             // PRE-OPERATIONAL consumes SYNC (the device may use it); STOPPED does not.
             return if nmt == NmtState::PreOperational { PdoEvent::Sync { rpdos: 0 } } else { PdoEvent::None };
         }
-        for t in p.tpdo[..p.ntpdo as usize].iter_mut() {
-            if !t.valid || !t.map.ok {
-                continue;
-            }
+        let mut due = p.sync_tx;
+        while due != 0 {
+            let t = &mut p.tpdo[due.trailing_zeros() as usize];
+            due &= due - 1;
             match t.ttype {
                 1..=240 => {
                     t.count += 1;
@@ -449,16 +484,24 @@ impl Pdos {
                 _ => {}
             }
         }
+        let rpdos = if p.nrpdo == 0 { 0 } else { p.apply_pending(&mut ctx.od) };
+        PdoEvent::Sync { rpdos }
+    }
+
+    /// Applies the synchronous RPDO data received since the last SYNC; the RPDOs written, one
+    /// bit each.
+    #[inline(never)]
+    fn apply_pending(&mut self, od: &mut Od) -> u8 {
         let mut rpdos = 0;
-        for n in 0..p.nrpdo as usize {
-            if let Some(data) = p.rpdo[n].pending.take() {
-                let map = p.rpdo[n].map;
-                if apply(&mut ctx.od, &map, &data) {
+        for n in 0..self.nrpdo as usize {
+            if let Some(data) = self.rpdo[n].pending.take() {
+                let map = self.rpdo[n].map;
+                if apply(od, &map, &data) {
                     rpdos |= 1 << n;
                 }
             }
         }
-        PdoEvent::Sync { rpdos }
+        rpdos
     }
 
     /// Sends the event-timer TPDOs that are due.
@@ -560,7 +603,7 @@ impl Pdos {
     ) -> Result<(), Abort> {
         let e = ctx.od.entry(pos);
         let (index, sub) = (e.index, e.sub);
-        match hook {
+        let result = match hook {
             CoreHook::SyncCobId => self.write_sync(nmt, value),
             CoreHook::PdoCobId => match pdo_of(index) {
                 Some((Dir::Tx, n)) if n < self.ntpdo as usize => self.write_tpdo_cob(ctx, nmt, n, value, now),
@@ -583,7 +626,9 @@ impl Pdos {
                 _ => Err(Abort::UNSUPPORTED_ACCESS),
             },
             _ => Err(Abort::GENERAL),
-        }
+        };
+        self.refresh_sync_tx();
+        result
     }
 
     /// 1005h: PRE-OPERATIONAL only, as the object tables print it (08000022h otherwise; issue
@@ -597,7 +642,7 @@ impl Pdos {
         }
         let id = checked_id(value, true)?;
         if self.sync != Some(id) {
-            self.sync = Some(id);
+            self.set_sync(Some(id));
             self.touch_rx_ids();
         }
         Ok(())
@@ -888,7 +933,7 @@ fn pack(od: &Od, map: &Mapping) -> [u8; 8] {
     let mut data = [0u8; 8];
     data.copy_from_slice(&buf[..8]);
     // Bytes past the payload are zero (`Frame::data` contract).
-    let keep = u64::MAX.checked_shr(64 - 8 * map.len.min(8) as u32).unwrap_or(0);
+    let keep = if map.len >= 8 { u64::MAX } else { (1u64 << (8 * map.len)) - 1 };
     (u64::from_le_bytes(data) & keep).to_le_bytes()
 }
 
