@@ -73,11 +73,31 @@ const C_BUS_OFF: usize = 5;
 
 /// Measuring steps of a raw wire extension `raw_um` (µm) at `resolution_nm` nm per step,
 /// truncated towards zero. A resolution of 0 (never accepted by 6005h) gives 0.
+///
+/// `raw_um * 1000 / resolution_nm` without a 64-bit division (a library routine of about 1 KiB
+/// on the Cortex-M3, and slow, on the per-sample path): the whole steps by one 32-bit division,
+/// then the three decimal digits of the remainder's fraction by subtraction.
 pub const fn steps(raw_um: u32, resolution_nm: u32) -> i64 {
     if resolution_nm == 0 {
         return 0;
     }
-    raw_um as i64 * 1000 / resolution_nm as i64
+    let whole = (raw_um / resolution_nm) as i64 * 1000;
+    let mut rest = (raw_um % resolution_nm) as u64;
+    let d = resolution_nm as u64;
+    let mut fraction = 0i64;
+    let mut digit = 0;
+    while digit < 3 {
+        // rest < d: rest * 10 < 10 d, so the digit is below 10.
+        rest *= 10;
+        let mut n = 0;
+        while rest >= d {
+            rest -= d;
+            n += 1;
+        }
+        fraction = fraction * 10 + n;
+        digit += 1;
+    }
+    whole + fraction
 }
 
 /// The measured value: `steps` in the counting direction.
@@ -441,6 +461,19 @@ impl Linear {
 mod tests {
     use super::*;
     use crate::encoder::Window;
+
+    #[test]
+    fn steps_equal_the_64_bit_quotient() {
+        let mut x = 1u32;
+        for _ in 0..20_000 {
+            x = x.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            let raw = x.rotate_left(7);
+            for res in [1, 7, 999, 1000, 1001, 100_000, 123_457, x >> 3 | 1, u32::MAX] {
+                assert_eq!(steps(raw, res), raw as i64 * 1000 / res as i64, "{raw} / {res}");
+            }
+        }
+        assert_eq!(steps(u32::MAX, 1), u32::MAX as i64 * 1000);
+    }
 
     #[test]
     fn scaling_truncates_to_tenths_of_a_millimetre() {
