@@ -48,6 +48,14 @@ const fn pattern(state: LedState) -> (u64, &'static [(u64, u64)]) {
 const ANTIPHASE_MS: u64 = 50;
 
 impl LedState {
+    /// Where `now` falls in the pattern's period of `period_ms`, in µs, the antiphase LED half
+    /// a flicker later.
+    fn phase(self, now: Instant, antiphase: bool, period_ms: u64) -> u32 {
+        let period = period_ms as u32 * 1000;
+        let shift = if antiphase && self == LedState::Flickering { ANTIPHASE_MS as u32 * 1000 } else { 0 };
+        (now.phase(period) + shift) % period
+    }
+
     /// Is the LED lit at `now`? `antiphase`: this LED is the second of an alternating pair
     /// (the red one), which matters for [`LedState::Flickering`] only.
     pub fn lit(self, now: Instant, antiphase: bool) -> bool {
@@ -56,11 +64,7 @@ impl LedState {
             LedState::On => true,
             _ => {
                 let (period, on) = pattern(self);
-                let mut t = now.as_micros();
-                if antiphase && self == LedState::Flickering {
-                    t += ANTIPHASE_MS * 1000;
-                }
-                let phase = t % (period * 1000);
+                let phase = self.phase(now, antiphase, period) as u64;
                 on.iter().any(|&(a, b)| phase >= a * 1000 && phase < b * 1000)
             }
         }
@@ -73,9 +77,9 @@ impl LedState {
             return None;
         }
         let shift = if antiphase && self == LedState::Flickering { ANTIPHASE_MS * 1000 } else { 0 };
-        let period = period * 1000;
         let t = now.as_micros() + shift;
-        let start = t - t % period;
+        let start = t - self.phase(now, antiphase, period) as u64;
+        let period = period * 1000;
         let mut next = u64::MAX;
         for base in [start, start + period] {
             for &(a, b) in on {

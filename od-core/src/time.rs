@@ -27,6 +27,23 @@ impl Instant {
         self.0
     }
 
+    /// Microseconds since the origin modulo `period_us` (below 2^21, about 2 s; a constant
+    /// of the caller's): the phase of a periodic pattern such as a blinking LED, in 32-bit
+    /// arithmetic. A 64-bit remainder is a library routine of about 1 KiB on the Cortex-M3.
+    pub const fn phase(self, period_us: u32) -> u32 {
+        assert!(period_us > 0 && period_us < 1 << 21, "phase period out of range");
+        // Horner over 11-bit limbs from the top 9 bits down: the remainder stays below 2^21,
+        // so shifting in 11 more bits stays below 2^32.
+        let t = self.0;
+        let mut r = (t >> 55) as u32 % period_us;
+        let mut shift = 55;
+        while shift > 0 {
+            shift -= 11;
+            r = ((r << 11) | ((t >> shift) & 0x7FF) as u32) % period_us;
+        }
+        r
+    }
+
     /// Whole milliseconds since the origin.
     pub const fn as_millis(self) -> u64 {
         self.0 / 1000
@@ -143,6 +160,19 @@ pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn phase_is_the_64_bit_remainder() {
+        let mut x = 0x1234_5678_9ABC_DEF0u64;
+        for _ in 0..50_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            for p in [1u32, 7, 1000, 100_000, 1_600_000, (1 << 21) - 1, (x >> 43) as u32 | 1] {
+                let t = Instant::from_micros(x);
+                assert_eq!(t.phase(p) as u64, x % p as u64, "{x} % {p}");
+            }
+        }
+        assert_eq!(Instant::from_micros(u64::MAX).phase(1_000_000) as u64, u64::MAX % 1_000_000);
+    }
 
     #[test]
     fn durations_add_to_instants_and_saturate() {

@@ -380,7 +380,10 @@ impl Panel {
         let mut next = mode.deadline(self.last_key);
         if let Mode::PowerUp(since) = mode {
             let quarter = POWER_UP_MS * 250;
-            let step = now.micros_since(since) / quarter + 1;
+            // The power-up display lasts seconds: its elapsed time fits 32 bits (a 64-bit
+            // division is a library routine of about 1 KiB on the Cortex-M3).
+            let elapsed = now.micros_since(since).min(u32::MAX as u64) as u32;
+            let step = (elapsed / quarter as u32) as u64 + 1;
             next = earliest(next, Some(since.add_micros(step * quarter)));
         } else {
             next = earliest(next, leds::next_change(&p.lights, &self.sps, now));

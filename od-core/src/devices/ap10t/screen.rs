@@ -32,14 +32,14 @@ pub const EXTENDED_MIN: i32 = -999_999;
 
 /// Whether blinking things are in their lit half at `now`.
 pub fn blink_on(now: Instant) -> bool {
-    now.as_micros() % (BLINK_PERIOD_MS * 1000) < BLINK_PERIOD_MS * 500
+    (now.phase(BLINK_PERIOD_MS as u32 * 1000) as u64) < BLINK_PERIOD_MS * 500
 }
 
 /// The next half-period boundary after `now` (when blinking things next change).
 pub fn next_blink_edge(now: Instant) -> Instant {
     let half = BLINK_PERIOD_MS * 500;
     let t = now.as_micros();
-    Instant::from_micros(t - t % half + half)
+    Instant::from_micros(t - now.phase(half as u32) as u64 + half)
 }
 
 /// One character position: an ASCII character (space = blank) and the decimal point after it.
