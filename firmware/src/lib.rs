@@ -5,6 +5,7 @@
 //! - [`can`]: the bxCAN at the node's bit rate, its acceptance filters, the receive queue and
 //!   the priority-ordered transmit queue, the controller's error state;
 //! - [`params`]: the parameter pages `memory.x` reserves, through the blocking flash driver;
+//! - [`boot_time`]: the cycle count from reset to the first frame, logged once;
 //! - [`run`]: boot and the one loop that waits for the next frame, the core's next deadline or
 //!   the next sample, whichever comes first.
 //!
@@ -13,6 +14,7 @@
 #![no_std]
 #![deny(missing_docs)]
 
+pub mod boot_time;
 pub mod can;
 pub mod params;
 pub mod run;

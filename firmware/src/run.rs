@@ -83,7 +83,10 @@ async fn serve<N: DeviceStation>(
 ) {
     while let Some(output) = node.next_output() {
         match output {
-            Output::Frame(frame) => bus.send(frame),
+            Output::Frame(frame) => {
+                crate::boot_time::frame_queued();
+                bus.send(frame)
+            }
             Output::Store(groups) => {
                 watchdog.pet();
                 let result = params.save(node.context(), groups);

@@ -11,6 +11,7 @@ use panic_probe as _;
 
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
+    firmware::boot_time::start();
     let board = boards::ap10t::take();
     firmware::run::run(Ap10t::new(), board.mcu, board.io).await
 }

@@ -9,6 +9,7 @@ use panic_probe as _;
 
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
+    firmware::boot_time::start();
     let board = boards::sgh10::take();
     firmware::run::run(Sgh10::new(board.variant), board.mcu, board.io).await
 }

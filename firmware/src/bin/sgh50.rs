@@ -10,6 +10,7 @@ use panic_probe as _;
 
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
+    firmware::boot_time::start();
     let board = boards::sgh50::take();
     firmware::run::run(Sgh50::new(board.variant), board.mcu, board.io).await
 }

@@ -32,6 +32,7 @@ const VARIANT: Variant = Variant {
 
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
+    firmware::boot_time::start();
     let board = boards::wv5800m::take(VARIANT);
     firmware::run::run(Wv5800m::new(VARIANT), board.mcu, board.io).await
 }

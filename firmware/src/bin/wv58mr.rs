@@ -31,6 +31,7 @@ const TURNS: Turns = if cfg!(feature = "singleturn") {
 
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
+    firmware::boot_time::start();
     let board = boards::wv58mr::take(TURNS);
     let device = Wv58mr::new(TURNS);
     firmware::run::drive(
