@@ -8,6 +8,7 @@
 
 pub mod abort;
 pub mod access;
+pub mod arith;
 pub mod autobaud;
 pub mod bitrate;
 pub mod context;

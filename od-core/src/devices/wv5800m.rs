@@ -359,7 +359,7 @@ impl Wv5800m {
             revolutions: n,
             apu: v(0x6001, 0, PHYSICAL_STEPS).clamp(1, MAX_APU),
             ccw: v(0x6000, 0, 0) as u16 & DIRECTION_BIT != 0,
-            calibration: (v(0x6509, 0, 0) as i32 as i64).rem_euclid(r as i64) as u32,
+            calibration: crate::arith::rem_euclid(v(0x6509, 0, 0) as i32 as i64, r),
             preset: v(0x6003, 0, 0) as i32,
             offset: v(0x2001, 0, 0) as i32,
         }

@@ -153,14 +153,15 @@ impl SpeedEstimator {
 /// The signed shortest difference `new - old` on a circle of `modulus` counts (a multiturn
 /// counter that wraps): the result lies in `-modulus/2 ..= (modulus-1)/2`. A modulus of 0 means
 /// no wrap (plain difference).
-pub const fn shortest_delta(new: i64, old: i64, modulus: i64) -> i64 {
+pub const fn shortest_delta(new: i64, old: i64, modulus: u32) -> i64 {
     let d = new.wrapping_sub(old);
-    if modulus <= 0 {
+    if modulus == 0 {
         return d;
     }
-    let mut r = d.rem_euclid(modulus);
-    if r > (modulus - 1) / 2 {
-        r -= modulus;
+    let m = modulus as i64;
+    let mut r = crate::arith::rem_euclid(d, modulus) as i64;
+    if r > (m - 1) / 2 {
+        r -= m;
     }
     r
 }

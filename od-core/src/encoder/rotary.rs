@@ -30,6 +30,7 @@
 //!
 //! The decisions are in `docs/decisions.md`, "WV5800M".
 
+use crate::arith;
 use crate::encoder::{shortest_delta, Window};
 use crate::od::{Access::*, DataType::*, Entry, Group, Hook};
 
@@ -158,15 +159,19 @@ impl Scaling {
 
     /// The measured value of `raw`: scaled, directed counts from the calibration point.
     pub const fn measured(&self, raw: u32) -> u32 {
-        let r = self.raw_range() as i64;
-        let counts = (self.directed(raw) as i64 - self.calibration as i64).rem_euclid(r);
-        self.scale(counts as u32)
+        let r = self.raw_range();
+        // Both counts lie in 0 .. R (the calibration reduced, should it not): one wrap at most.
+        let (counts, cal) = (self.directed(raw), self.calibration % r);
+        self.scale(if counts >= cal { counts - cal } else { counts + (r - cal) })
     }
 
     /// The position value (6004h) of `raw`.
     pub const fn position(&self, raw: u32) -> u32 {
-        let t = self.total() as i64;
-        (self.measured(raw) as i64 + self.preset as i64 + self.offset as i64).rem_euclid(t) as u32
+        let t = self.total();
+        // Each term reduced into 0 .. T (T < 2^28), so their sum stays within 32 bits.
+        let preset = arith::rem_euclid(self.preset as i64, t);
+        let offset = arith::rem_euclid(self.offset as i64, t);
+        (self.measured(raw) % t + preset + offset) % t
     }
 
     /// The calibration (6509h) that zeroes the measured value at `raw` (2002h := 1).
@@ -194,7 +199,7 @@ impl Scaling {
 /// The signed raw movement from `old` to `new` (600Ch values) on the wrapping raw circle of
 /// `raw_range` counts, in the counting direction.
 pub const fn raw_delta(new: u32, old: u32, raw_range: u32, ccw: bool) -> i64 {
-    let d = shortest_delta(new as i64, old as i64, raw_range as i64);
+    let d = shortest_delta(new as i64, old as i64, raw_range);
     if ccw {
         -d
     } else {
@@ -403,7 +408,7 @@ mod tests {
             let r = raw_range(REVS[k]);
             let old = old % r;
             let new = (old as i64 + d).rem_euclid(r as i64) as u32;
-            let expect = if r as i64 > 2 * d.abs() { d } else { shortest_delta(new as i64, old as i64, r as i64) };
+            let expect = if r as i64 > 2 * d.abs() { d } else { shortest_delta(new as i64, old as i64, r) };
             prop_assert_eq!(raw_delta(new, old, r, false), expect);
             prop_assert_eq!(raw_delta(new, old, r, true), -expect);
         }

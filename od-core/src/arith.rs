@@ -1,0 +1,64 @@
+//! Integer arithmetic the Cortex-M3 has no instruction for, without the library routines.
+//!
+//! The M3 divides 32-bit numbers in hardware; a 64-bit division or remainder is a library
+//! routine of about 1 KiB of flash and hundreds of cycles. Every 64-bit remainder the core
+//! needs (positions on a circle of counts, phases of periodic patterns) has a 32-bit modulus,
+//! so [`rem_u64`] does it by shifts and subtractions, and the callers take a 32-bit fast path
+//! first where their operands allow.
+
+/// `x mod m` for a 64-bit `x` and a 32-bit `m > 0` (0 for `m == 0`): binary long division,
+/// one shift, compare and subtract per bit, no division.
+pub const fn rem_u64(x: u64, m: u32) -> u32 {
+    if m == 0 {
+        return 0;
+    }
+    if x <= u32::MAX as u64 {
+        return x as u32 % m;
+    }
+    let m = m as u64;
+    let mut r = 0u64;
+    let mut bit = 64;
+    while bit > 0 {
+        bit -= 1;
+        // r < m < 2^32: the shifted remainder fits 33 bits.
+        r = (r << 1) | ((x >> bit) & 1);
+        if r >= m {
+            r -= m;
+        }
+    }
+    r as u32
+}
+
+/// The Euclidean remainder of `x` by `m > 0`, in `0 .. m` (`i64::rem_euclid` for a 32-bit
+/// modulus; 0 for `m == 0`).
+pub const fn rem_euclid(x: i64, m: u32) -> u32 {
+    let r = rem_u64(x.unsigned_abs(), m);
+    if x < 0 && r != 0 {
+        m - r
+    } else {
+        r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn remainders_equal_the_64_bit_ones() {
+        let mut x = 0x0123_4567_89AB_CDEFu64;
+        for _ in 0..50_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            for v in [x, x >> 20, x >> 40, x >> 60] {
+                for m in [1u32, 3, 16_384, 262_144, 67_108_864, (x >> 33) as u32 | 1, u32::MAX] {
+                    assert_eq!(rem_u64(v, m) as u64, v % m as u64, "{v} % {m}");
+                    let s = v as i64;
+                    assert_eq!(rem_euclid(s, m) as i64, s.rem_euclid(m as i64), "{s} rem {m}");
+                    assert_eq!(rem_euclid(-(v as i64 >> 1), m) as i64, (-(v as i64 >> 1)).rem_euclid(m as i64));
+                }
+            }
+        }
+        assert_eq!(rem_euclid(i64::MIN, 7) as i64, i64::MIN.rem_euclid(7));
+        assert_eq!(rem_u64(5, 0), 0);
+    }
+}
