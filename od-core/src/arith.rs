@@ -40,6 +40,29 @@ pub const fn rem_euclid(x: i64, m: u32) -> u32 {
     }
 }
 
+/// `n / d` for unsigned 128-bit numbers with `d` below 2^127 (`u128::MAX` for `d == 0`):
+/// binary long division from the numerator's top bit. The library's 128-bit division is over
+/// 1 KiB on the Cortex-M3; this is a few dozen bytes, and the callers (a speed once per
+/// integration time) need no speed.
+pub const fn div_u128(n: u128, d: u128) -> u128 {
+    if d == 0 {
+        return u128::MAX;
+    }
+    let mut q = 0u128;
+    let mut r = 0u128;
+    let mut bit = 128 - n.leading_zeros();
+    while bit > 0 {
+        bit -= 1;
+        // r < d < 2^127: the shifted remainder fits.
+        r = (r << 1) | ((n >> bit) & 1);
+        if r >= d {
+            r -= d;
+            q |= 1 << bit;
+        }
+    }
+    q
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -60,5 +83,20 @@ mod tests {
         }
         assert_eq!(rem_euclid(i64::MIN, 7) as i64, i64::MIN.rem_euclid(7));
         assert_eq!(rem_u64(5, 0), 0);
+    }
+
+    #[test]
+    fn quotients_equal_the_128_bit_ones() {
+        let mut x = 0x0123_4567_89AB_CDEFu128;
+        for _ in 0..50_000 {
+            x = x.wrapping_mul(0x2360_ED05_1FC6_5DA4_4385_DF64_9FCC_F645).wrapping_add(0x5851_F42D_4C95_7F2D);
+            for n in [x, x >> 30, x >> 70, x >> 100] {
+                for d in [1u128, 3, 1000, (x >> 64) | 1, (x >> 90) | 1, (x >> 1) | 1] {
+                    assert_eq!(div_u128(n, d), n / d, "{n} / {d}");
+                }
+            }
+        }
+        assert_eq!(div_u128(u128::MAX, (1 << 127) - 1), 2);
+        assert_eq!(div_u128(7, 0), u128::MAX);
     }
 }

@@ -88,9 +88,12 @@ impl Window {
             return 0;
         }
         let (n, d) = if d < 0 { (-n, -d) } else { (n, d) };
-        let half = d / 2;
-        let q = if n >= 0 { (n + half) / d } else { (n - half) / d };
-        q.clamp(i64::MIN as i128, i64::MAX as i128) as i64
+        // |n| + d/2 over d, the sign put back: rounding halves away from zero, as the signed
+        // division did, by the small unsigned long division (a speed is rare and needs no
+        // speed; the library's 128-bit division is over 1 KiB of flash).
+        let q = crate::arith::div_u128(n.unsigned_abs() + (d as u128) / 2, d as u128);
+        let q = q.min(i64::MAX as u128 + 1) as i128;
+        (if n < 0 { -q } else { q }).clamp(i64::MIN as i128, i64::MAX as i128) as i64
     }
 }
 
@@ -346,6 +349,33 @@ impl EmcyConditions {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The rate as the signed 128-bit division gives it.
+    fn rate_by_i128(w: &Window, num: i64, den: i64) -> i64 {
+        let n = w.delta as i128 * num as i128 * 1_000_000;
+        let d = w.elapsed_us as i128 * den as i128;
+        if d == 0 {
+            return 0;
+        }
+        let (n, d) = if d < 0 { (-n, -d) } else { (n, d) };
+        let half = d / 2;
+        let q = if n >= 0 { (n + half) / d } else { (n - half) / d };
+        q.clamp(i64::MIN as i128, i64::MAX as i128) as i64
+    }
+
+    #[test]
+    fn rate_rounds_as_the_signed_division() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..100_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            let w = Window { delta: (x as i64) >> (x % 40), elapsed_us: (x >> 44) + 1 };
+            for (num, den) in
+                [(1, 10), (1, 1000), (3, 7000), (-5, 3), (1, -10), ((x >> 50) as i64, 1000 * ((x >> 54) as i64 + 1))]
+            {
+                assert_eq!(w.rate(num, den), rate_by_i128(&w, num, den), "{w:?} {num}/{den}");
+            }
+        }
+    }
 
     #[test]
     fn rate_rounds_to_nearest_and_keeps_the_sign() {
