@@ -192,7 +192,12 @@ impl Errors {
                 code
             }
             (false, Some(i)) => {
-                self.active.swap_remove(i);
+                // `swap_remove` without its overlapping copy (a `memmove` in the image).
+                if let Some(last) = self.active.pop() {
+                    if i < self.active.len() {
+                        self.active[i] = last;
+                    }
+                }
                 NO_ERROR
             }
             _ => return,

@@ -90,24 +90,49 @@ pub fn banks(ids: &[RxId], max_banks: usize) -> Vec<Bank, BANKS> {
     if max == 0 {
         return out;
     }
-    let std: Vec<RxId, MAX_IDS> = ids.iter().copied().filter(|r| matches!(r.id, CanId::Std(_))).collect();
-    let ext: Vec<RxId, MAX_IDS> = ids.iter().copied().filter(|r| matches!(r.id, CanId::Ext(_))).collect();
-    let needed = std.len().div_ceil(4) + ext.len().div_ceil(2);
+    let is_std = |r: &&RxId| matches!(r.id, CanId::Std(_));
+    let std = ids.iter().filter(is_std).count();
+    let needed = std.div_ceil(4) + (ids.len() - std).div_ceil(2);
     if needed > max {
         // Overflow: fall back to software filtering for everything. (Partial hardware
         // filtering beside an accept-all bank would filter nothing.)
         let _ = out.push(Bank::AcceptAll);
         return out;
     }
-    for chunk in std.chunks(4) {
-        let mut e = [chunk[0]; 4];
-        e[..chunk.len()].copy_from_slice(chunk);
-        let _ = out.push(Bank::List16(e));
+    // Four 11-bit identifiers to a bank, then two 29-bit ones; a bank's unused places repeat
+    // its first identifier. (Built in place rather than through collected lists, whose moves
+    // link a `memmove` into the image.)
+    let mut list16 = [RxId::data(CanId::Std(0)); 4];
+    let mut n = 0;
+    for r in ids.iter().filter(is_std) {
+        if n == 0 {
+            list16 = [*r; 4];
+        }
+        list16[n] = *r;
+        n += 1;
+        if n == 4 {
+            let _ = out.push(Bank::List16(list16));
+            n = 0;
+        }
     }
-    for chunk in ext.chunks(2) {
-        let mut e = [chunk[0]; 2];
-        e[..chunk.len()].copy_from_slice(chunk);
-        let _ = out.push(Bank::List32(e));
+    if n > 0 {
+        let _ = out.push(Bank::List16(list16));
+    }
+    let mut list32 = [RxId::data(CanId::Ext(0)); 2];
+    let mut n = 0;
+    for r in ids.iter().filter(|r| !is_std(r)) {
+        if n == 0 {
+            list32 = [*r; 2];
+        }
+        list32[n] = *r;
+        n += 1;
+        if n == 2 {
+            let _ = out.push(Bank::List32(list32));
+            n = 0;
+        }
+    }
+    if n > 0 {
+        let _ = out.push(Bank::List32(list32));
     }
     out
 }
