@@ -169,10 +169,9 @@ pub enum Default {
 pub enum Kind {
     /// A plain variable (sub-index 0, ObjectType 7).
     Var,
-    /// Sub-index 0 of a RECORD (ObjectType 9) or ARRAY (ObjectType 8) named `object`.
+    /// Sub-index 0 of a RECORD (ObjectType 9) or ARRAY (ObjectType 8); with the `names`
+    /// feature, [`Entry::object`] is the object's name.
     Head {
-        /// The object's name.
-        object: &'static str,
         /// ARRAY (all members of one type) rather than RECORD.
         array: bool,
     },
@@ -242,6 +241,10 @@ impl Limits {
 const _: () = assert!(core::mem::size_of::<Entry>() <= 56);
 
 /// One (index, sub-index) of a device's dictionary, as declared.
+///
+/// The parameter and object names the builders take are kept only with the `names` feature
+/// (the host's EDS generator and simulator views); without it, as in the firmware, they are
+/// dropped and take no flash.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Entry {
     /// Object index.
@@ -250,8 +253,6 @@ pub struct Entry {
     pub sub: u8,
     /// Variable, record/array head, or member.
     pub kind: Kind,
-    /// Parameter name.
-    pub name: &'static str,
     /// Data type.
     pub dtype: DataType,
     /// Access rights.
@@ -266,6 +267,12 @@ pub struct Entry {
     pub group: Group,
     /// Write side effect.
     pub hook: Hook,
+    /// Parameter name.
+    #[cfg(feature = "names")]
+    name: &'static str,
+    /// A record or array head's object name ("" for the other entries).
+    #[cfg(feature = "names")]
+    object: &'static str,
 }
 
 impl Entry {
@@ -273,16 +280,17 @@ impl Entry {
         index: u16,
         sub: u8,
         kind: Kind,
-        name: &'static str,
+        names: (&'static str, &'static str),
         dtype: DataType,
         access: Access,
         default: Default,
     ) -> Entry {
+        #[cfg(not(feature = "names"))]
+        let _ = names;
         Entry {
             index,
             sub,
             kind,
-            name,
             dtype,
             access,
             pdo: false,
@@ -290,17 +298,21 @@ impl Entry {
             limits: Limits::NONE,
             group: Group::None,
             hook: Hook::None,
+            #[cfg(feature = "names")]
+            name: names.0,
+            #[cfg(feature = "names")]
+            object: names.1,
         }
     }
 
     /// A plain variable at sub-index 0.
     pub const fn var(index: u16, name: &'static str, dtype: DataType, access: Access, default: u32) -> Entry {
-        Entry::base(index, 0, Kind::Var, name, dtype, access, Default::Value(default))
+        Entry::base(index, 0, Kind::Var, (name, ""), dtype, access, Default::Value(default))
     }
 
     /// A constant VISIBLE_STRING variable.
     pub const fn string(index: u16, name: &'static str, value: &'static str) -> Entry {
-        Entry::base(index, 0, Kind::Var, name, DataType::VisibleString, Access::Const, Default::Str(value))
+        Entry::base(index, 0, Kind::Var, (name, ""), DataType::VisibleString, Access::Const, Default::Str(value))
     }
 
     /// Sub-index 0 of a RECORD: "highest sub-index supported", UNSIGNED8, `access`.
@@ -308,8 +320,8 @@ impl Entry {
         Entry::base(
             index,
             0,
-            Kind::Head { object, array: false },
-            "Highest sub-index supported",
+            Kind::Head { array: false },
+            ("Highest sub-index supported", object),
             DataType::Unsigned8,
             access,
             Default::Value(highest as u32),
@@ -321,8 +333,8 @@ impl Entry {
         Entry::base(
             index,
             0,
-            Kind::Head { object, array: true },
-            "Highest sub-index supported",
+            Kind::Head { array: true },
+            ("Highest sub-index supported", object),
             DataType::Unsigned8,
             access,
             Default::Value(highest as u32),
@@ -338,13 +350,33 @@ impl Entry {
         access: Access,
         default: u32,
     ) -> Entry {
-        Entry::base(index, sub, Kind::Member, name, dtype, access, Default::Value(default))
+        Entry::base(index, sub, Kind::Member, (name, ""), dtype, access, Default::Value(default))
     }
 
     /// Renames the entry (for a record head whose sub 0 the manual names).
+    #[cfg_attr(not(feature = "names"), allow(unused_mut, unused_variables))]
     pub const fn named(mut self, name: &'static str) -> Entry {
-        self.name = name;
+        #[cfg(feature = "names")]
+        {
+            self.name = name;
+        }
         self
+    }
+
+    /// The parameter name (for a record or array head, its sub 0's: [`Entry::object`] is the
+    /// object's).
+    #[cfg(feature = "names")]
+    pub const fn name(&self) -> &'static str {
+        self.name
+    }
+
+    /// The name of the record or array a head ([`Kind::Head`]) starts; `None` for the others.
+    #[cfg(feature = "names")]
+    pub const fn object(&self) -> Option<&'static str> {
+        match self.kind {
+            Kind::Head { .. } => Some(self.object),
+            _ => None,
+        }
     }
 
     /// Sets a fixed default other than the one the builder implies (1003h sub 0: the number

@@ -293,15 +293,12 @@ fn default_value(e: &Entry) -> String {
 
 /// The name of an object: the record/array name for a head, the entry's own for a variable.
 fn object_name(e: &Entry) -> &'static str {
-    match e.kind {
-        Kind::Head { object, .. } => object,
-        _ => e.name,
-    }
+    e.object().unwrap_or(e.name())
 }
 
 /// Writes the keys of one variable (a VAR object or a sub-index).
 fn variable(out: &mut String, table: &[Entry], e: &Entry) {
-    let _ = writeln!(out, "ParameterName={}", e.name);
+    let _ = writeln!(out, "ParameterName={}", e.name());
     let _ = writeln!(out, "ObjectType=0x7");
     let _ = writeln!(out, "DataType=0x{:04X}", e.dtype as u16);
     let _ = writeln!(out, "AccessType={}", access(e.access));
@@ -490,7 +487,7 @@ pub fn table_json(table: &[Entry]) -> String {
              \"pdo\": {}, \"default\": {}, \"node_id_relative\": {}, \"low\": {}, \"high\": {}}}",
             e.index,
             e.sub,
-            json_str(e.name),
+            json_str(e.name()),
             json_str(object),
             e.dtype as u16,
             access(e.access),

@@ -246,7 +246,7 @@ fn every_entry_reads_its_declared_default_at_power_on() {
         let live = matches!((e.index, e.sub), (0x1018, 4) | (0x650B, 0));
         let v = sdo_read(&mut bus, 1, e.index, e.sub);
         if !live {
-            assert_eq!(v, e.default_value(1), "{:04X}h.{:02X} {}", e.index, e.sub, e.name);
+            assert_eq!(v, e.default_value(1), "{:04X}h.{:02X} {}", e.index, e.sub, e.name());
         }
     }
 }

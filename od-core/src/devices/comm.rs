@@ -657,10 +657,15 @@ mod tests {
         assert_eq!(od.value(0x1A01, 1), Some(0x5F1D_0120));
         assert!(od.pos(0x1400, 4).is_none() && od.pos(0x1400, 6).is_none());
         let e = |i, s| od.entry(od.pos(i, s).unwrap());
-        assert_eq!(e(0x1600, 0).name, "Number of mapped objects");
-        assert_eq!(e(0x1A00, 0).kind, Kind::Head { object: "TPDO1 mapping parameter", array: false });
-        assert_eq!(e(0x1401, 0).kind, Kind::Head { object: "RPDO2 communication parameter", array: false });
-        assert_eq!(e(0x1401, 1).name, "COB-ID used by RPDO2");
+        assert_eq!(e(0x1A00, 0).kind, Kind::Head { array: false });
+        #[cfg(feature = "names")]
+        {
+            assert_eq!(e(0x1600, 0).name(), "Number of mapped objects");
+            assert_eq!(e(0x1A00, 0).object(), Some("TPDO1 mapping parameter"));
+            assert_eq!(e(0x1401, 0).object(), Some("RPDO2 communication parameter"));
+            assert_eq!(e(0x1401, 1).name(), "COB-ID used by RPDO2");
+            assert_eq!(e(0x1401, 1).object(), None);
+        }
         assert_eq!(e(0x1801, 2).limits(), Some((1, 0xF0)));
         assert_eq!(e(0x1800, 2).limits(), None);
         assert_eq!((e(0x1800, 5).access, e(0x1800, 5).hook), (Access::Rw, Hook::Device(9)));
@@ -701,9 +706,13 @@ mod tests {
         assert_eq!(od.value(0x1403, 1), Some(0x501));
         assert_eq!(od.value(0x1803, 1), Some(0x481));
         let e = |i, s| od.entry(od.pos(i, s).unwrap());
-        assert_eq!(e(0x1A03, 8).name, "Mapped object 8");
-        assert_eq!(e(0x1603, 0).kind, Kind::Head { object: "RPDO4 mapping parameter", array: false });
-        assert_eq!(e(0x1803, 1).name, "COB-ID used by TPDO4");
+        assert_eq!(e(0x1603, 0).kind, Kind::Head { array: false });
+        #[cfg(feature = "names")]
+        {
+            assert_eq!(e(0x1A03, 8).name(), "Mapped object 8");
+            assert_eq!(e(0x1603, 0).object(), Some("RPDO4 mapping parameter"));
+            assert_eq!(e(0x1803, 1).name(), "COB-ID used by TPDO4");
+        }
     }
 
     const A: Entry = Entry::var(0x1000, "A", DataType::Unsigned8, Access::Ro, 0);
