@@ -239,7 +239,7 @@ fn every_entry_reads_its_declared_default_at_power_on() {
     let (mut bus, _) = sgh10(0);
     for e in sgh10::TABLE {
         // 1003h entries above the error count answer 08000024h; strings are segmented.
-        let string = matches!(e.default, od_core::od::Default::Str(_));
+        let string = matches!(e.default(), od_core::od::Default::Str(_));
         if !e.access.readable() || string || e.size() > 4 || e.size() == 0 || (e.index == 0x1003 && e.sub > 0) {
             continue;
         }
