@@ -170,7 +170,7 @@ pub enum Kind {
     /// A plain variable (sub-index 0, ObjectType 7).
     Var,
     /// Sub-index 0 of a RECORD (ObjectType 9) or ARRAY (ObjectType 8); with the `names`
-    /// feature, [`Entry::object`] is the object's name.
+    /// feature, `Entry::object` is the object's name.
     Head {
         /// ARRAY (all members of one type) rather than RECORD.
         array: bool,
