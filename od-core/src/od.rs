@@ -238,9 +238,10 @@ const PLUS_NODE_ID: u8 = 1 << 3;
 /// `data` holds a VISIBLE_STRING's bytes, NUL-padded.
 const STRING: u8 = 1 << 4;
 
-// Every table lives in the firmware's flash, about a hundred entries per device (four tables
-// in the WV58MR image): an entry that grows past 22 bytes should be a decision, not an
-// accident. Without names an entry holds no pointer, so its size is the same on the host.
+// Every table lives in the firmware's flash, about a hundred entries per device: an entry that
+// grows past 22 bytes on the 32-bit target should be a decision, not an accident. Without
+// names an entry holds no pointer, so the assertion holds on the host too (`cargo test -p
+// od-core`); the names (host only) add two string references.
 #[cfg(not(feature = "names"))]
 const _: () = assert!(core::mem::size_of::<Entry>() <= 22);
 
@@ -253,7 +254,7 @@ const _: () = assert!(core::mem::size_of::<Entry>() <= 22);
 /// The parameter and object names the builders take are kept only with the `names` feature
 /// (the host's EDS generator and simulator views); without it, as in the firmware, they are
 /// dropped and take no flash.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[derive(Clone, Copy, PartialEq, Eq)]
 pub struct Entry {
     /// Object index.
     pub index: u16,
@@ -355,7 +356,7 @@ impl Entry {
     /// A constant VISIBLE_STRING variable of at most [`STRING_MAX`] visible characters
     /// (20h-7Eh; anything else fails the declaration, at compile time for a `static` table):
     ///
-    /// ```compile_fail
+    /// ```compile_fail,E0080
     /// use od_core::od::Entry;
     /// // 13 characters: "VISIBLE_STRING longer than od::STRING_MAX".
     /// static T: [Entry; 1] = [Entry::string(0x1008, "Manufacturer device name", "WV5800M-4096T")];
@@ -550,6 +551,25 @@ impl Entry {
             Kind::Head { array: false, .. } => 9,
             Kind::Member => 7,
         }
+    }
+}
+
+/// The entry as declared, its packed attributes decoded.
+impl core::fmt::Debug for Entry {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let mut d = f.debug_struct("Entry");
+        d.field("index", &self.index).field("sub", &self.sub);
+        #[cfg(feature = "names")]
+        d.field("name", &self.name).field("object", &self.object());
+        d.field("kind", &self.kind())
+            .field("dtype", &self.dtype)
+            .field("access", &self.access)
+            .field("pdo", &self.pdo)
+            .field("default", &self.default())
+            .field("limits", &self.limits())
+            .field("group", &self.group)
+            .field("hook", &self.hook)
+            .finish()
     }
 }
 
@@ -806,6 +826,9 @@ mod tests {
     fn defaults_limits_and_kinds_round_trip() {
         let e = Entry::member(0x1800, 1, "COB-ID", DataType::Unsigned32, Access::Rw, 0).plus_node_id(0x180);
         assert_eq!((e.default(), e.default_value(0x7F), e.size()), (Default::PlusNodeId(0x180), 0x1FF, 4));
+        let mut shown: heapless::String<256> = heapless::String::new();
+        core::fmt::Write::write_fmt(&mut shown, format_args!("{e:?}")).unwrap();
+        assert!(shown.contains("kind: Member") && shown.contains("default: PlusNodeId(384)"), "{shown}");
         let e = e.with_default(0x8000_0000);
         assert_eq!((e.default(), e.default_value(0x7F)), (Default::Value(0x8000_0000), 0x8000_0000));
         let e = Entry::var(0x2000, "I8", DataType::Integer8, Access::Rw, -3i8 as u8 as u32).range(-128, 127);
