@@ -9,7 +9,7 @@ use crate::abort::Abort;
 use crate::context::{Context, Written};
 use crate::device::Device;
 use crate::errors;
-use crate::od::{CoreHook, Default, Hook};
+use crate::od::{CoreHook, Hook};
 use crate::sdo::ObjectAccess;
 use crate::time::Instant;
 
@@ -72,7 +72,7 @@ pub fn read(ctx: &Context, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize,
 pub fn read_short(ctx: &Context, index: u16, sub: u8) -> Result<Option<([u8; 4], usize)>, Abort> {
     let pos = readable(ctx, index, sub)?;
     let e = ctx.od.entry(pos);
-    if matches!(e.default, Default::Str(_)) {
+    if e.string_value().is_some() {
         return Ok(None);
     }
     Ok(Some((ctx.od.get(pos).to_le_bytes(), e.dtype.size())))

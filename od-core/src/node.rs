@@ -19,7 +19,7 @@ use crate::guarding::Guarding;
 use crate::heartbeat::Heartbeat;
 use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
-use crate::od::{CoreHook, Default as OdDefault, Group, Hook, Od};
+use crate::od::{CoreHook, Group, Hook, Od};
 use crate::pdo::{self, PdoEvent, Pdos, RtrAnswer, RtrReply};
 use crate::sdo::SdoServer;
 use crate::shell::{DeviceStation, Station};
@@ -650,7 +650,7 @@ impl<D: CanopenDevice> Node<D> {
 fn sdo_cob_ids(ctx: &mut Context) {
     let id = ctx.node_id;
     for (pos, e) in ctx.od.table().iter().enumerate() {
-        if e.group == Group::None && matches!(e.default, OdDefault::PlusNodeId(_)) {
+        if e.group == Group::None && e.is_node_id_relative() {
             ctx.od.set(pos, e.default_value(id));
         }
     }

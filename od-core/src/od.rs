@@ -14,7 +14,7 @@ use crate::lookup::Lookup;
 
 /// CiA 301 data types used by the devices, with their CiA 301 type codes as discriminants.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-#[repr(u16)]
+#[repr(u8)]
 pub enum DataType {
     /// BOOLEAN.
     Boolean = 0x0001,
@@ -154,15 +154,15 @@ impl GroupMask {
     }
 }
 
-/// A default value as the manual gives it.
+/// A default value as the manual gives it ([`Entry::default`]); a string borrows the entry.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-pub enum Default {
+pub enum Default<'a> {
     /// A fixed value (the 32-bit pattern; negative INTEGERs as two's complement).
     Value(u32),
     /// A base plus the node-ID (COB-ID defaults such as 180h + node-ID).
     PlusNodeId(u32),
     /// A constant string.
-    Str(&'static str),
+    Str(&'a str),
 }
 
 /// The part of a CiA 306 object an entry is.
@@ -170,10 +170,9 @@ pub enum Default {
 pub enum Kind {
     /// A plain variable (sub-index 0, ObjectType 7).
     Var,
-    /// Sub-index 0 of a RECORD (ObjectType 9) or ARRAY (ObjectType 8) named `object`.
+    /// Sub-index 0 of a RECORD (ObjectType 9) or ARRAY (ObjectType 8); with the `names`
+    /// feature, `Entry::object` is the object's name.
     Head {
-        /// The object's name.
-        object: &'static str,
         /// ARRAY (all members of one type) rather than RECORD.
         array: bool,
     },
@@ -223,85 +222,157 @@ pub enum CoreHook {
     PendingBitrate,
 }
 
-/// An entry's limits as the 32-bit patterns of its data type (every value fits a 32-bit slot,
-/// D-ARCH-2): 9 bytes where an `Option<(i64, i64)>` takes 24, in every entry of every table in
-/// flash.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-struct Limits {
-    lo: u32,
-    hi: u32,
-    set: bool,
-}
+/// Longest VISIBLE_STRING an entry holds: it is kept in the entry, in the bytes a number's
+/// default and limits take (the longest string of the five manuals, 1008h "WV5800M", has 7).
+pub const STRING_MAX: usize = 12;
 
-impl Limits {
-    const NONE: Limits = Limits { lo: 0, hi: 0, set: false };
-}
+// `Entry::flags`: the kind in the low two bits, then which reading of `Entry::data` applies.
+const KIND: u8 = 0b11;
+const VAR: u8 = 0;
+const RECORD: u8 = 1;
+const ARRAY: u8 = 2;
+const MEMBER: u8 = 3;
+/// `data[4..12]` hold inclusive limits.
+const LIMITED: u8 = 1 << 2;
+/// The default is `data[0..4]` plus the node-ID.
+const PLUS_NODE_ID: u8 = 1 << 3;
+/// `data` holds a VISIBLE_STRING's bytes, NUL-padded.
+const STRING: u8 = 1 << 4;
 
 // Every table lives in the firmware's flash, about a hundred entries per device: an entry that
-// grows past 56 bytes on the 32-bit target should be a decision, not an accident.
-#[cfg(target_pointer_width = "32")]
-const _: () = assert!(core::mem::size_of::<Entry>() <= 56);
+// grows past 22 bytes on the 32-bit target should be a decision, not an accident. Without
+// names an entry holds no pointer, so the assertion holds on the host too (`cargo test -p
+// od-core`); the names (host only) add two string references.
+#[cfg(not(feature = "names"))]
+const _: () = assert!(core::mem::size_of::<Entry>() <= 22);
 
 /// One (index, sub-index) of a device's dictionary, as declared.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+///
+/// 22 bytes in the firmware: the rare attributes are packed into one byte of flags, a number's
+/// default and limits are 32-bit patterns of its type (every value fits a 32-bit slot,
+/// D-ARCH-2), and a VISIBLE_STRING's bytes take their place ([`STRING_MAX`]).
+///
+/// The parameter and object names the builders take are kept only with the `names` feature
+/// (the host's EDS generator and simulator views); without it, as in the firmware, they are
+/// dropped and take no flash.
+#[derive(Clone, Copy, PartialEq, Eq)]
 pub struct Entry {
     /// Object index.
     pub index: u16,
     /// Sub-index.
     pub sub: u8,
-    /// Variable, record/array head, or member.
-    pub kind: Kind,
-    /// Parameter name.
-    pub name: &'static str,
     /// Data type.
     pub dtype: DataType,
     /// Access rights.
     pub access: Access,
     /// May be mapped into a PDO.
     pub pdo: bool,
-    /// Factory default.
-    pub default: Default,
-    /// Inclusive value limits ([`Entry::limits`]).
-    limits: Limits,
     /// Storage group.
     pub group: Group,
     /// Write side effect.
     pub hook: Hook,
+    /// [`Entry::kind`] and the reading of `data` (`LIMITED`, `PLUS_NODE_ID`, `STRING`).
+    flags: u8,
+    /// A number: its default (or the base of a node-ID-relative one), low and high limits, each
+    /// a little-endian 32-bit pattern. A VISIBLE_STRING: its bytes, NUL-padded.
+    data: [u8; STRING_MAX],
+    /// Parameter name.
+    #[cfg(feature = "names")]
+    name: &'static str,
+    /// A record or array head's object name ("" for the other entries).
+    #[cfg(feature = "names")]
+    object: &'static str,
 }
 
 impl Entry {
     const fn base(
         index: u16,
         sub: u8,
-        kind: Kind,
-        name: &'static str,
+        kind: u8,
+        names: (&'static str, &'static str),
         dtype: DataType,
         access: Access,
-        default: Default,
+        default: u32,
     ) -> Entry {
-        Entry {
+        #[cfg(not(feature = "names"))]
+        let _ = names;
+        let mut e = Entry {
             index,
             sub,
-            kind,
-            name,
             dtype,
             access,
             pdo: false,
-            default,
-            limits: Limits::NONE,
             group: Group::None,
             hook: Hook::None,
+            flags: kind,
+            data: [0; STRING_MAX],
+            #[cfg(feature = "names")]
+            name: names.0,
+            #[cfg(feature = "names")]
+            object: names.1,
+        };
+        e.put(0, default);
+        e
+    }
+
+    /// Stores `v` as the 32-bit pattern at `data[at..at + 4]`.
+    const fn put(&mut self, at: usize, v: u32) {
+        let b = v.to_le_bytes();
+        let mut i = 0;
+        while i < 4 {
+            self.data[at + i] = b[i];
+            i += 1;
         }
+    }
+
+    /// The 32-bit pattern at `data[at..at + 4]`.
+    const fn word(&self, at: usize) -> u32 {
+        let d = &self.data;
+        u32::from_le_bytes([d[at], d[at + 1], d[at + 2], d[at + 3]])
+    }
+
+    const fn is_string(&self) -> bool {
+        self.flags & STRING != 0
+    }
+
+    /// A VISIBLE_STRING's value, its bytes; `None` for a number. What the firmware's paths
+    /// read: [`Entry::default`] gives it as a `str`, at the price of a UTF-8 check that the
+    /// firmware should not link.
+    pub const fn string_value(&self) -> Option<&[u8]> {
+        if !self.is_string() {
+            return None;
+        }
+        let mut n = 0;
+        while n < STRING_MAX && self.data[n] != 0 {
+            n += 1;
+        }
+        Some(self.data.split_at(n).0)
     }
 
     /// A plain variable at sub-index 0.
     pub const fn var(index: u16, name: &'static str, dtype: DataType, access: Access, default: u32) -> Entry {
-        Entry::base(index, 0, Kind::Var, name, dtype, access, Default::Value(default))
+        Entry::base(index, 0, VAR, (name, ""), dtype, access, default)
     }
 
-    /// A constant VISIBLE_STRING variable.
+    /// A constant VISIBLE_STRING variable of at most [`STRING_MAX`] visible characters
+    /// (20h-7Eh; anything else fails the declaration, at compile time for a `static` table):
+    ///
+    /// ```compile_fail,E0080
+    /// use od_core::od::Entry;
+    /// // 13 characters: "VISIBLE_STRING longer than od::STRING_MAX".
+    /// static T: [Entry; 1] = [Entry::string(0x1008, "Manufacturer device name", "WV5800M-4096T")];
+    /// ```
     pub const fn string(index: u16, name: &'static str, value: &'static str) -> Entry {
-        Entry::base(index, 0, Kind::Var, name, DataType::VisibleString, Access::Const, Default::Str(value))
+        let bytes = value.as_bytes();
+        assert!(bytes.len() <= STRING_MAX, "VISIBLE_STRING longer than od::STRING_MAX");
+        let mut e = Entry::base(index, 0, VAR | STRING, (name, ""), DataType::VisibleString, Access::Const, 0);
+        let mut i = 0;
+        while i < bytes.len() {
+            assert!(bytes[i] >= 0x20 && bytes[i] <= 0x7E, "VISIBLE_STRING with a character outside 20h-7Eh");
+            e.data[i] = bytes[i];
+            i += 1;
+        }
+        e
     }
 
     /// Sub-index 0 of a RECORD: "highest sub-index supported", UNSIGNED8, `access`.
@@ -309,11 +380,11 @@ impl Entry {
         Entry::base(
             index,
             0,
-            Kind::Head { object, array: false },
-            "Highest sub-index supported",
+            RECORD,
+            ("Highest sub-index supported", object),
             DataType::Unsigned8,
             access,
-            Default::Value(highest as u32),
+            highest as u32,
         )
     }
 
@@ -322,11 +393,11 @@ impl Entry {
         Entry::base(
             index,
             0,
-            Kind::Head { object, array: true },
-            "Highest sub-index supported",
+            ARRAY,
+            ("Highest sub-index supported", object),
             DataType::Unsigned8,
             access,
-            Default::Value(highest as u32),
+            highest as u32,
         )
     }
 
@@ -339,19 +410,51 @@ impl Entry {
         access: Access,
         default: u32,
     ) -> Entry {
-        Entry::base(index, sub, Kind::Member, name, dtype, access, Default::Value(default))
+        Entry::base(index, sub, MEMBER, (name, ""), dtype, access, default)
     }
 
     /// Renames the entry (for a record head whose sub 0 the manual names).
+    #[cfg_attr(not(feature = "names"), allow(unused_mut, unused_variables))]
     pub const fn named(mut self, name: &'static str) -> Entry {
-        self.name = name;
+        #[cfg(feature = "names")]
+        {
+            self.name = name;
+        }
         self
+    }
+
+    /// The parameter name (for a record or array head, its sub 0's: [`Entry::object`] is the
+    /// object's).
+    #[cfg(feature = "names")]
+    pub const fn name(&self) -> &'static str {
+        self.name
+    }
+
+    /// The name of the record or array a head ([`Kind::Head`]) starts; `None` for the others.
+    #[cfg(feature = "names")]
+    pub const fn object(&self) -> Option<&'static str> {
+        match self.kind() {
+            Kind::Head { .. } => Some(self.object),
+            _ => None,
+        }
+    }
+
+    /// Variable, record/array head, or member.
+    pub const fn kind(&self) -> Kind {
+        match self.flags & KIND {
+            VAR => Kind::Var,
+            RECORD => Kind::Head { array: false },
+            ARRAY => Kind::Head { array: true },
+            _ => Kind::Member,
+        }
     }
 
     /// Sets a fixed default other than the one the builder implies (1003h sub 0: the number
     /// of errors, 0 by default, though the array has room for more).
     pub const fn with_default(mut self, value: u32) -> Entry {
-        self.default = Default::Value(value);
+        assert!(!self.is_string(), "a string's default is its value");
+        self.put(0, value);
+        self.flags &= !PLUS_NODE_ID;
         self
     }
 
@@ -364,17 +467,19 @@ impl Entry {
     /// Sets inclusive limits, in the type's numeric range (a limit outside it fails the
     /// declaration, at compile time for a `static` table).
     pub const fn range(mut self, lo: i64, hi: i64) -> Entry {
-        let limits = Limits { lo: lo as u32, hi: hi as u32, set: true };
-        assert!(self.dtype.to_i64(limits.lo) == lo && self.dtype.to_i64(limits.hi) == hi, "limit outside the type");
-        self.limits = limits;
+        assert!(!self.is_string(), "a string has no limits");
+        assert!(self.dtype.to_i64(lo as u32) == lo && self.dtype.to_i64(hi as u32) == hi, "limit outside the type");
+        self.put(4, lo as u32);
+        self.put(8, hi as u32);
+        self.flags |= LIMITED;
         self
     }
 
     /// The inclusive value limits, in the type's numeric range, if the entry has any.
     #[inline]
     pub const fn limits(&self) -> Option<(i64, i64)> {
-        if self.limits.set {
-            Some((self.dtype.to_i64(self.limits.lo), self.dtype.to_i64(self.limits.hi)))
+        if self.flags & LIMITED != 0 {
+            Some((self.dtype.to_i64(self.word(4)), self.dtype.to_i64(self.word(8))))
         } else {
             None
         }
@@ -394,35 +499,79 @@ impl Entry {
 
     /// Default is `base` plus the node-ID.
     pub const fn plus_node_id(mut self, base: u32) -> Entry {
-        self.default = Default::PlusNodeId(base);
+        assert!(!self.is_string(), "a string's default is its value");
+        self.put(0, base);
+        self.flags |= PLUS_NODE_ID;
         self
+    }
+
+    /// Is the default a base plus the node-ID ([`Default::PlusNodeId`])? What the firmware's
+    /// paths ask instead of matching [`Entry::default`], which checks a string as UTF-8.
+    pub const fn is_node_id_relative(&self) -> bool {
+        self.flags & PLUS_NODE_ID != 0
+    }
+
+    /// The factory default.
+    pub const fn default(&self) -> Default<'_> {
+        if self.is_node_id_relative() {
+            Default::PlusNodeId(self.word(0))
+        } else if let Some(bytes) = self.string_value() {
+            // Checked visible ASCII when declared: never the empty fallback.
+            match core::str::from_utf8(bytes) {
+                Ok(s) => Default::Str(s),
+                Err(_) => Default::Str(""),
+            }
+        } else {
+            Default::Value(self.word(0))
+        }
     }
 
     /// The default value for a node with this node-ID (strings: 0).
     pub const fn default_value(&self, node_id: u8) -> u32 {
-        match self.default {
-            Default::Value(v) => v,
-            Default::PlusNodeId(b) => b.wrapping_add(node_id as u32),
-            Default::Str(_) => 0,
+        if self.is_node_id_relative() {
+            self.word(0).wrapping_add(node_id as u32)
+        } else if self.is_string() {
+            0
+        } else {
+            self.word(0)
         }
     }
 
     /// Bytes the value takes on the bus.
     pub const fn size(&self) -> usize {
-        match self.default {
-            Default::Str(s) => s.len(),
-            _ => self.dtype.size(),
+        match self.string_value() {
+            Some(s) => s.len(),
+            None => self.dtype.size(),
         }
     }
 
     /// The CiA 306 ObjectType of the object this entry heads or is (7 VAR, 8 ARRAY, 9 RECORD).
     pub const fn object_type(&self) -> u8 {
-        match self.kind {
+        match self.kind() {
             Kind::Var => 7,
             Kind::Head { array: true, .. } => 8,
             Kind::Head { array: false, .. } => 9,
             Kind::Member => 7,
         }
+    }
+}
+
+/// The entry as declared, its packed attributes decoded.
+impl core::fmt::Debug for Entry {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let mut d = f.debug_struct("Entry");
+        d.field("index", &self.index).field("sub", &self.sub);
+        #[cfg(feature = "names")]
+        d.field("name", &self.name).field("object", &self.object());
+        d.field("kind", &self.kind())
+            .field("dtype", &self.dtype)
+            .field("access", &self.access)
+            .field("pdo", &self.pdo)
+            .field("default", &self.default())
+            .field("limits", &self.limits())
+            .field("group", &self.group)
+            .field("hook", &self.hook)
+            .finish()
     }
 }
 
@@ -524,10 +673,10 @@ impl Od {
     /// into `buf`; returns the number of bytes. `buf` must hold [`Entry::size`] bytes.
     pub fn encode(&self, pos: usize, buf: &mut [u8]) -> usize {
         let e = &self.table[pos];
-        match e.default {
-            Default::Str(s) => {
+        match e.string_value() {
+            Some(s) => {
                 let n = s.len().min(buf.len());
-                buf[..n].copy_from_slice(&s.as_bytes()[..n]);
+                buf[..n].copy_from_slice(&s[..n]);
                 n
             }
             _ => {
@@ -637,5 +786,79 @@ mod tests {
         assert_eq!(od.check_read(8), Err(Abort::UNSUPPORTED_ACCESS));
         assert_eq!(od.check_write(8, &[0; 4]), Err(Abort::UNSUPPORTED_ACCESS));
         assert_eq!(od.get(6), -5i32 as u32);
+    }
+
+    #[test]
+    fn strings_live_in_the_entry() {
+        let e = Entry::string(0x1008, "Name", "ABCDEFGHIJKL");
+        assert_eq!(e.default(), Default::Str("ABCDEFGHIJKL"));
+        assert_eq!((e.size(), e.default_value(5), e.limits()), (STRING_MAX, 0, None));
+        let empty = Entry::string(0x1009, "Empty", "");
+        assert_eq!((empty.default(), empty.size()), (Default::Str(""), 0));
+        let od = Od::new(T, 1);
+        let mut b = [0xAAu8; 8];
+        assert_eq!(od.encode(1, &mut b[..3]), 3, "cut to the buffer");
+        assert_eq!(&b[..4], b"SGH\xAA");
+        assert_eq!(od.entry(1).size(), 5);
+    }
+
+    #[test]
+    #[should_panic(expected = "longer than od::STRING_MAX")]
+    fn a_string_longer_than_an_entry_is_refused() {
+        let _ = Entry::string(0x1008, "Name", "ABCDEFGHIJKLM");
+    }
+
+    #[test]
+    #[should_panic(expected = "outside 20h-7Eh")]
+    fn a_string_must_be_visible() {
+        let _ = Entry::string(0x1008, "Name", "AB\0C");
+    }
+
+    #[test]
+    #[should_panic(expected = "a string has no limits")]
+    fn a_string_has_no_limits() {
+        let _ = Entry::string(0x1008, "Name", "AB").range(0, 1);
+    }
+
+    #[test]
+    fn defaults_limits_and_kinds_round_trip() {
+        let e = Entry::member(0x1800, 1, "COB-ID", DataType::Unsigned32, Access::Rw, 0).plus_node_id(0x180);
+        assert_eq!((e.default(), e.default_value(0x7F), e.size()), (Default::PlusNodeId(0x180), 0x1FF, 4));
+        let mut shown: heapless::String<256> = heapless::String::new();
+        core::fmt::Write::write_fmt(&mut shown, format_args!("{e:?}")).unwrap();
+        assert!(shown.contains("kind: Member") && shown.contains("default: PlusNodeId(384)"), "{shown}");
+        let e = e.with_default(0x8000_0000);
+        assert_eq!((e.default(), e.default_value(0x7F)), (Default::Value(0x8000_0000), 0x8000_0000));
+        let e = Entry::var(0x2000, "I8", DataType::Integer8, Access::Rw, -3i8 as u8 as u32).range(-128, 127);
+        assert_eq!((e.limits(), e.dtype.to_i64(e.default_value(1))), (Some((-128, 127)), -3));
+        let e = Entry::var(0x2001, "I16", DataType::Integer16, Access::Rw, 0).range(-32768, -1);
+        assert_eq!(e.limits(), Some((-32768, -1)));
+        let e = Entry::var(0x2002, "U32", DataType::Unsigned32, Access::Rw, u32::MAX).range(0, u32::MAX as i64);
+        assert_eq!((e.limits(), e.default_value(0)), (Some((0, u32::MAX as i64)), u32::MAX));
+        let e = e.pdo().group(Group::Manuf).hook(Hook::Device(200));
+        assert_eq!(
+            (e.pdo, e.group, e.hook, e.limits()),
+            (true, Group::Manuf, Hook::Device(200), Some((0, 0xFFFF_FFFF)))
+        );
+        let kinds = [
+            (Entry::var(0x1000, "V", DataType::Unsigned8, Access::Ro, 0), Kind::Var, 7),
+            (Entry::record(0x1018, "R", 4, Access::Const), Kind::Head { array: false }, 9),
+            (Entry::array(0x1010, "A", 4, Access::Const), Kind::Head { array: true }, 8),
+            (Entry::member(0x1018, 1, "M", DataType::Unsigned8, Access::Ro, 0), Kind::Member, 7),
+        ];
+        for (e, kind, object_type) in kinds {
+            assert_eq!((e.kind(), e.object_type(), e.limits()), (kind, object_type, None), "{e:?}");
+        }
+        assert_eq!(Entry::record(0x1018, "R", 4, Access::Const).default(), Default::Value(4));
+    }
+
+    #[cfg(feature = "names")]
+    #[test]
+    fn names_are_kept_with_the_feature() {
+        let head = Entry::record(0x1018, "Identity", 4, Access::Const);
+        assert_eq!((head.name(), head.object()), ("Highest sub-index supported", Some("Identity")));
+        let head = head.named("Number of entries");
+        assert_eq!((head.name(), head.object()), ("Number of entries", Some("Identity")));
+        assert_eq!((T[4].name(), T[4].object()), ("Vendor", None));
     }
 }

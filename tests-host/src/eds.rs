@@ -284,7 +284,7 @@ fn limit(v: i64) -> String {
 
 /// The DefaultValue of an entry.
 fn default_value(e: &Entry) -> String {
-    match e.default {
+    match e.default() {
         Default::Value(v) => number(e.dtype, v),
         Default::PlusNodeId(base) => format!("$NODEID+0x{base:X}"),
         Default::Str(s) => s.to_string(),
@@ -293,15 +293,12 @@ fn default_value(e: &Entry) -> String {
 
 /// The name of an object: the record/array name for a head, the entry's own for a variable.
 fn object_name(e: &Entry) -> &'static str {
-    match e.kind {
-        Kind::Head { object, .. } => object,
-        _ => e.name,
-    }
+    e.object().unwrap_or(e.name())
 }
 
 /// Writes the keys of one variable (a VAR object or a sub-index).
 fn variable(out: &mut String, table: &[Entry], e: &Entry) {
-    let _ = writeln!(out, "ParameterName={}", e.name);
+    let _ = writeln!(out, "ParameterName={}", e.name());
     let _ = writeln!(out, "ObjectType=0x7");
     let _ = writeln!(out, "DataType=0x{:04X}", e.dtype as u16);
     let _ = writeln!(out, "AccessType={}", access(e.access));
@@ -363,7 +360,7 @@ fn comments(table: &[Entry]) -> Vec<String> {
 pub fn generate(info: &EdsInfo, table: &[Entry]) -> String {
     let find = |index: u16, sub: u8| table.iter().find(|e| e.index == index && e.sub == sub);
     let ident = |sub: u8| find(0x1018, sub).map(|e| e.default_value(0)).expect("1018h identity declared");
-    let product = match find(0x1008, 0).map(|e| e.default) {
+    let product = match find(0x1008, 0).map(|e| e.default()) {
         Some(Default::Str(s)) => s,
         _ => panic!("1008h device name declared"),
     };
@@ -423,7 +420,7 @@ pub fn generate(info: &EdsInfo, table: &[Entry]) -> String {
     object_list(w, "OptionalObjects", &objects(table, |i| !mandatory(i) && !manufacturer(i)));
     object_list(w, "ManufacturerObjects", &objects(table, manufacturer));
     for (pos, e) in table.iter().enumerate() {
-        match e.kind {
+        match e.kind() {
             Kind::Var => {
                 let _ = writeln!(w, "[{:04X}]", e.index);
                 variable(w, table, e);
@@ -472,10 +469,10 @@ pub fn table_json(table: &[Entry]) -> String {
     let mut out = String::from("[\n");
     let mut object = "";
     for (n, e) in table.iter().enumerate() {
-        if e.kind != Kind::Member {
+        if e.kind() != Kind::Member {
             object = object_name(e);
         }
-        let (default, relative) = match e.default {
+        let (default, relative) = match e.default() {
             Default::Value(v) => (e.dtype.to_i64(v).to_string(), false),
             Default::PlusNodeId(b) => (b.to_string(), true),
             Default::Str(s) => (json_str(s), false),
@@ -490,7 +487,7 @@ pub fn table_json(table: &[Entry]) -> String {
              \"pdo\": {}, \"default\": {}, \"node_id_relative\": {}, \"low\": {}, \"high\": {}}}",
             e.index,
             e.sub,
-            json_str(e.name),
+            json_str(e.name()),
             json_str(object),
             e.dtype as u16,
             access(e.access),

@@ -136,18 +136,18 @@ fn every_documented_row_is_declared_as_the_digest_lists_it() {
         assert_eq!(e.access, access, "{at} access");
         assert_eq!(e.pdo, r.pdo, "{at} PDO mapping");
         // Default: a number, a base + node-ID, a string; 5F0Ah.02's is not stated (D-AP-14).
-        match (&e.default, r.default.as_str()) {
-            (Default::Str(s), d) => assert_eq!(*s, d, "{at} default"),
+        match (e.default(), r.default.as_str()) {
+            (Default::Str(s), d) => assert_eq!(s, d, "{at} default"),
             (Default::PlusNodeId(base), d) => {
                 let (b, node) = d.split_once('+').unwrap_or_else(|| panic!("{at} default {d}"));
                 assert_eq!(node, "NodeID", "{at}");
-                assert_eq!(*base as i64, number(b), "{at} default base");
+                assert_eq!(base as i64, number(b), "{at} default base");
             }
             (Default::Value(v), "") => {
                 assert_eq!((r.index, r.sub), (0x5F0A, 2), "{at}: only 5F0Ah.02 has no stated default");
-                assert_eq!(*v, DEFAULT_NODE_ID as u32, "{at}");
+                assert_eq!(v, DEFAULT_NODE_ID as u32, "{at}");
             }
-            (Default::Value(v), d) => assert_eq!(e.dtype.to_i64(*v), number(d), "{at} default"),
+            (Default::Value(v), d) => assert_eq!(e.dtype.to_i64(v), number(d), "{at} default"),
         }
         // Limits: those the digest gives; a range equal to the type's whole range is none.
         let full = match e.dtype {
@@ -189,7 +189,7 @@ fn records_heads_and_factory_identifiers() {
     for (index, highest) in [(0x1010, 4), (0x1018, 4), (0x1200, 2), (0x1400, 5), (0x1A01, 3), (0x5F0A, 3), (0x5F12, 9)]
     {
         assert_eq!(od.value(index, 0), Some(highest), "{index:04X}h");
-        assert!(matches!(od.entry(od.pos(index, 0).unwrap()).kind, Kind::Head { .. }));
+        assert!(matches!(od.entry(od.pos(index, 0).unwrap()).kind(), Kind::Head { .. }));
     }
     // Factory node-ID 7Dh: the Table 5 identifiers.
     for (index, sub, id) in

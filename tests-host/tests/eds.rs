@@ -84,7 +84,7 @@ fn every_entry_has_a_section() {
     for EdsDevice { info, table, .. } in devices() {
         let eds = generate(&info, table);
         for e in table {
-            let section = match e.kind {
+            let section = match e.kind() {
                 Kind::Var => format!("[{:04X}]\n", e.index),
                 _ => format!("[{:04X}sub{:X}]\n", e.index, e.sub),
             };
@@ -99,7 +99,7 @@ fn every_default_lies_within_its_limits() {
     for EdsDevice { info, table, .. } in devices() {
         for e in table {
             let Some((lo, hi)) = declared_limits(table, e) else { continue };
-            let defaults: Vec<i64> = match e.default {
+            let defaults: Vec<i64> = match e.default() {
                 Default::Value(v) => vec![e.dtype.to_i64(v)],
                 Default::PlusNodeId(b) => vec![b as i64 + 1, b as i64 + 127],
                 Default::Str(_) => vec![],
@@ -256,6 +256,6 @@ fn serial_number_defaults_agree() {
         let serial = table.iter().find(|e| (e.index, e.sub) == (0x1018, 4)).expect("1018h sub 4");
         // The AP10T's is a constant "compatibility entry", FFFFFFFFh as its manual prints it.
         let want = if part == Part::Ap10t { 0xFFFF_FFFF } else { 1 };
-        assert_eq!(serial.default, Default::Value(want), "{}", info.file_name);
+        assert_eq!(serial.default(), Default::Value(want), "{}", info.file_name);
     }
 }

@@ -239,14 +239,14 @@ fn every_entry_reads_its_declared_default_at_power_on() {
     let (mut bus, _) = sgh10(0);
     for e in sgh10::TABLE {
         // 1003h entries above the error count answer 08000024h; strings are segmented.
-        let string = matches!(e.default, od_core::od::Default::Str(_));
+        let string = matches!(e.default(), od_core::od::Default::Str(_));
         if !e.access.readable() || string || e.size() > 4 || e.size() == 0 || (e.index == 0x1003 && e.sub > 0) {
             continue;
         }
         let live = matches!((e.index, e.sub), (0x1018, 4) | (0x650B, 0));
         let v = sdo_read(&mut bus, 1, e.index, e.sub);
         if !live {
-            assert_eq!(v, e.default_value(1), "{:04X}h.{:02X} {}", e.index, e.sub, e.name);
+            assert_eq!(v, e.default_value(1), "{:04X}h.{:02X} {}", e.index, e.sub, e.name());
         }
     }
 }

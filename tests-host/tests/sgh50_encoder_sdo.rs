@@ -106,13 +106,13 @@ fn identity_and_profile_objects_read_as_printed() {
 fn every_entry_reads_its_declared_default_at_power_on() {
     let (mut bus, _) = sgh50(Variant::Single, 0);
     for e in sgh50::TABLE {
-        let string = matches!(e.default, od_core::od::Default::Str(_));
+        let string = matches!(e.default(), od_core::od::Default::Str(_));
         if !e.access.readable() || string || e.size() > 4 || e.size() == 0 || (e.index == 0x1003 && e.sub > 0) {
             continue;
         }
         let v = sdo_read(&mut bus, 1, e.index, e.sub);
         if !matches!((e.index, e.sub), (0x1018, 4) | (0x650B, 0)) {
-            assert_eq!(v, e.default_value(1), "{:04X}h.{:02X} {}", e.index, e.sub, e.name);
+            assert_eq!(v, e.default_value(1), "{:04X}h.{:02X} {}", e.index, e.sub, e.name());
         }
     }
 }

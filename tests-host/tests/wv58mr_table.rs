@@ -154,7 +154,7 @@ fn check(turns: Turns) {
         assert_eq!(e.pdo, row[5] == "y", "{at}: PGN-mapped");
         // Default.
         let printed = &row[6];
-        match e.default {
+        match e.default() {
             Default::Str(s) => assert_eq!(s, printed, "{at}: default"),
             Default::Value(v) => {
                 let v = e.dtype.to_i64(v);
@@ -181,7 +181,7 @@ fn check(turns: Turns) {
                     assert_eq!(declared.map(|l| l.1), Some(hi), "{at}: max");
                 }
             }
-            if lo.is_none() && hi.is_none() && e.access == Access::Rw && !matches!(e.kind, Kind::Head { .. }) {
+            if lo.is_none() && hi.is_none() && e.access == Access::Rw && !matches!(e.kind(), Kind::Head { .. }) {
                 // A writable entry without printed limits takes its type's range (or a
                 // documented rule).
                 assert!(declared.is_none() || matches!(index, 0x6000 | 0x6002 | 0x1003), "{at}: limits {declared:?}");

@@ -260,11 +260,11 @@ pub const fn join<const N: usize>(parts: &[&[Entry]]) -> [Entry; N] {
             if n > 0 {
                 let last = &out[n - 1];
                 assert!(before(last, &e), "comm::join: entries out of (index, sub) order");
-                if matches!(e.kind, Kind::Member) {
+                if matches!(e.kind(), Kind::Member) {
                     assert!(last.index == e.index, "comm::join: a member without its object's sub 0");
                 }
             } else {
-                assert!(!matches!(e.kind, Kind::Member), "comm::join: a member without its object's sub 0");
+                assert!(!matches!(e.kind(), Kind::Member), "comm::join: a member without its object's sub 0");
             }
             out[n] = e;
             n += 1;
@@ -622,7 +622,7 @@ mod tests {
         assert_eq!(objects.as_slice(), &[0x1000, 0x1001, 0x1003, 0x100A, 0x1010, 0x1011, 0x1018]);
         assert_eq!(rows.as_slice().len(), 1 + 1 + 9 + 1 + 5 + 5 + 5);
         let serial = rows.as_slice().iter().find(|e| (e.index, e.sub) == (0x1018, 4)).unwrap();
-        assert_eq!((serial.default, serial.group), (Default::Value(1), Group::Factory));
+        assert_eq!((serial.default(), serial.group), (Default::Value(1), Group::Factory));
     }
 
     /// The AP10T's shape: two RPDOs and two TPDOs of three mapped objects, read-only heads, a
@@ -657,15 +657,20 @@ mod tests {
         assert_eq!(od.value(0x1A01, 1), Some(0x5F1D_0120));
         assert!(od.pos(0x1400, 4).is_none() && od.pos(0x1400, 6).is_none());
         let e = |i, s| od.entry(od.pos(i, s).unwrap());
-        assert_eq!(e(0x1600, 0).name, "Number of mapped objects");
-        assert_eq!(e(0x1A00, 0).kind, Kind::Head { object: "TPDO1 mapping parameter", array: false });
-        assert_eq!(e(0x1401, 0).kind, Kind::Head { object: "RPDO2 communication parameter", array: false });
-        assert_eq!(e(0x1401, 1).name, "COB-ID used by RPDO2");
+        assert_eq!(e(0x1A00, 0).kind(), Kind::Head { array: false });
+        #[cfg(feature = "names")]
+        {
+            assert_eq!(e(0x1600, 0).name(), "Number of mapped objects");
+            assert_eq!(e(0x1A00, 0).object(), Some("TPDO1 mapping parameter"));
+            assert_eq!(e(0x1401, 0).object(), Some("RPDO2 communication parameter"));
+            assert_eq!(e(0x1401, 1).name(), "COB-ID used by RPDO2");
+            assert_eq!(e(0x1401, 1).object(), None);
+        }
         assert_eq!(e(0x1801, 2).limits(), Some((1, 0xF0)));
         assert_eq!(e(0x1800, 2).limits(), None);
         assert_eq!((e(0x1800, 5).access, e(0x1800, 5).hook), (Access::Rw, Hook::Device(9)));
         assert_eq!((e(0x1801, 5).access, e(0x1801, 5).group), (Access::Ro, Group::None));
-        assert_eq!((e(0x1018, 4).default, e(0x1018, 4).group), (Default::Value(0xFFFF_FFFF), Group::None));
+        assert_eq!((e(0x1018, 4).default(), e(0x1018, 4).group), (Default::Value(0xFFFF_FFFF), Group::None));
         assert_eq!(od.value(0x1018, 3), Some(0));
         for i in [0x1010, 0x1011, 0x1018, 0x1200, 0x1400, 0x1601, 0x1801, 0x1A00] {
             assert_eq!(e(i, 0).access, Access::Ro, "{i:04X}h sub 0");
@@ -683,10 +688,10 @@ mod tests {
         let r = node_id_and_bitrate(&s);
         let r = r.as_slice();
         assert!(ids(r).eq([(0x5F0A, 0), (0x5F0A, 1), (0x5F0A, 2), (0x5F0A, 3)]));
-        assert_eq!((r[0].default, r[0].access), (Default::Value(3), Access::Ro));
-        assert_eq!((r[1].default, r[1].hook), (Default::Value(0x7D), Hook::Core(CoreHook::PendingNodeId)));
+        assert_eq!((r[0].default(), r[0].access), (Default::Value(3), Access::Ro));
+        assert_eq!((r[1].default(), r[1].hook), (Default::Value(0x7D), Hook::Core(CoreHook::PendingNodeId)));
         assert_eq!(r[2].hook, Hook::Device(3));
-        assert_eq!((r[3].default, r[3].limits()), (Default::Value(0), Some((0, 5))));
+        assert_eq!((r[3].default(), r[3].limits()), (Default::Value(0), Some((0, 5))));
         assert_eq!(r[3].hook, Hook::Core(CoreHook::PendingBitrate));
         assert!(r[1..].iter().all(|e| e.group == Group::Manuf));
     }
@@ -701,9 +706,13 @@ mod tests {
         assert_eq!(od.value(0x1403, 1), Some(0x501));
         assert_eq!(od.value(0x1803, 1), Some(0x481));
         let e = |i, s| od.entry(od.pos(i, s).unwrap());
-        assert_eq!(e(0x1A03, 8).name, "Mapped object 8");
-        assert_eq!(e(0x1603, 0).kind, Kind::Head { object: "RPDO4 mapping parameter", array: false });
-        assert_eq!(e(0x1803, 1).name, "COB-ID used by TPDO4");
+        assert_eq!(e(0x1603, 0).kind(), Kind::Head { array: false });
+        #[cfg(feature = "names")]
+        {
+            assert_eq!(e(0x1A03, 8).name(), "Mapped object 8");
+            assert_eq!(e(0x1603, 0).object(), Some("RPDO4 mapping parameter"));
+            assert_eq!(e(0x1803, 1).name(), "COB-ID used by TPDO4");
+        }
     }
 
     const A: Entry = Entry::var(0x1000, "A", DataType::Unsigned8, Access::Ro, 0);

@@ -627,7 +627,7 @@ mod tests {
             assert_eq!(od.value(0x6000, 0), Some(4));
             assert!(od.pos(0x1800, 4).is_none() && od.pos(0x1801, 6).is_none());
             let e = od.entry(od.pos(0x1008, 0).unwrap());
-            assert_eq!(e.default, crate::od::Default::Str(v.model.name()));
+            assert_eq!(e.default(), crate::od::Default::Str(v.model.name()));
             let e = od.entry(od.pos(0x2001, 0).unwrap());
             assert_eq!(e.limits(), Some((-(16384 * n as i64), 16384 * n as i64 - 1)));
             let e = od.entry(od.pos(0x6003, 0).unwrap());

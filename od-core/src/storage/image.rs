@@ -18,7 +18,7 @@
 //! firmware that adds or removes entries still loads every record that matches one of its
 //! entries (same size, value within the entry's limits) and ignores the rest.
 
-use crate::od::{CoreHook, DataType, Default, Entry, Hook};
+use crate::od::{CoreHook, DataType, Entry, Hook};
 
 use super::crc::Crc32;
 
@@ -88,7 +88,7 @@ impl Record {
     pub fn fits(&self, e: &Entry) -> bool {
         if (self.index, self.sub) != (e.index, e.sub)
             || !super::is_stored(e)
-            || matches!(e.default, Default::Str(_))
+            || e.string_value().is_some()
             || self.size as usize != e.dtype.size()
         {
             return false;
@@ -323,9 +323,9 @@ pub fn identity(table: &[Entry]) -> u32 {
         if let Some(e) = table.iter().find(|e| (e.index, e.sub) == (index, sub)) {
             crc.update(&index.to_le_bytes());
             crc.update(&[sub]);
-            match e.default {
-                Default::Str(s) => crc.update(s.as_bytes()),
-                _ => crc.update(&e.default_value(0).to_le_bytes()),
+            match e.string_value() {
+                Some(s) => crc.update(s),
+                None => crc.update(&e.default_value(0).to_le_bytes()),
             }
         }
     }

@@ -128,7 +128,7 @@ fn pdo_values(core: &Core, map: u16, data: &[u8]) -> String {
         } else {
             raw as i64
         };
-        let label = od.find(index, s).ok().map(|p| od.table()[p].name).unwrap_or("?");
+        let label = od.find(index, s).ok().map(|p| od.table()[p].name()).unwrap_or("?");
         // A linear position (6020h, or 6004h) in millimetres, from the step size (6005h.01, nm).
         match od.value(0x6005, 1).filter(|nm| matches!(index, 0x6004 | 0x6020) && *nm > 0) {
             Some(nm) => out.push(format!("{label}={value} ({:.1} mm)", value as f64 * nm as f64 / 1e6)),

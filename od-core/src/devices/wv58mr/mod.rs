@@ -41,7 +41,9 @@ pub struct Wv58mr {
 }
 
 impl Wv58mr {
-    /// A channel with `turns`, before its first sensor sample.
+    /// A channel with `turns`, before its first sensor sample. Inlined, so that an image built
+    /// for one measuring range links only that range's dictionary (D-J1939-26).
+    #[inline]
     pub fn new(turns: Turns) -> Wv58mr {
         Wv58mr {
             turns,
@@ -96,7 +98,9 @@ impl Wv58mr {
 
 impl Device for Wv58mr {
     fn table(&self) -> &'static [Entry] {
-        table_of(self.turns)
+        // The one `new` chose: looked up again from `turns` at run time, every image would
+        // link the four measuring ranges' dictionaries (D-J1939-26).
+        self.encoder.table()
     }
 
     fn on_write(&mut self, ctx: &mut Context, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
@@ -169,5 +173,21 @@ impl Encoder for Wv58mr {
 
     fn sample_period_us(&self) -> u32 {
         self.encoder.sample_period_us()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_channel_serves_the_dictionary_of_its_measuring_range() {
+        for turns in [Turns::Single, Turns::Multi4, Turns::Multi8, Turns::Multi12] {
+            let d = Wv58mr::new(turns);
+            assert!(core::ptr::eq(d.table(), table_of(turns)), "{turns:?}");
+            assert_eq!(d.turns(), turns);
+            let revolutions = d.table().iter().find(|e| (e.index, e.sub) == (0x6502, 0)).map(|e| e.default_value(0));
+            assert_eq!(revolutions, Some(turns.revolutions()), "{turns:?}: 6502h");
+        }
     }
 }
