@@ -160,6 +160,7 @@ impl<D: Device, S: Services> ObjectAccess for Access<'_, D, S> {
         read(self.ctx, index, sub, buf)
     }
 
+    #[inline]
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
         write(self.ctx, self.device, self.services, index, sub, data, now)
     }

@@ -245,21 +245,25 @@ impl ServerResponse {
     /// The 8 data bytes the server sends (reserved bits and bytes zero).
     #[inline]
     pub fn emit(&self) -> [u8; 8] {
-        match *self {
+        // Every response but the segments is a command byte, the multiplexer and four bytes.
+        let (cs, index, sub, tail) = match *self {
             ServerResponse::UploadExpedited { index, sub, data, len } => {
                 let len = len.clamp(1, 4);
-                with_mux(0x43 | ((4 - len) << 2), index, sub, expedited_tail(data, len))
+                (0x43 | ((4 - len) << 2), index, sub, u32::from_le_bytes(expedited_tail(data, len)))
             }
-            ServerResponse::UploadSegmented { index, sub, size } => with_mux(0x41, index, sub, size.to_le_bytes()),
+            ServerResponse::UploadSegmented { index, sub, size } => (0x41, index, sub, size),
+            ServerResponse::DownloadInitiated { index, sub } => (0x60, index, sub, 0),
+            ServerResponse::Abort { index, sub, code } => (0x80, index, sub, code),
             ServerResponse::UploadSegment { toggle, data, len, last } => {
                 let len = len.min(7);
                 let cs = if toggle { TOGGLE } else { 0 } | ((7 - len) << 1) | last as u8;
-                segment(cs, &data, len)
+                return segment(cs, &data, len);
             }
-            ServerResponse::DownloadInitiated { index, sub } => with_mux(0x60, index, sub, [0; 4]),
-            ServerResponse::DownloadSegment { toggle } => [0x20 | if toggle { TOGGLE } else { 0 }, 0, 0, 0, 0, 0, 0, 0],
-            ServerResponse::Abort { index, sub, code } => with_mux(0x80, index, sub, code.to_le_bytes()),
-        }
+            ServerResponse::DownloadSegment { toggle } => {
+                return [0x20 | if toggle { TOGGLE } else { 0 }, 0, 0, 0, 0, 0, 0, 0];
+            }
+        };
+        (cs as u64 | (index as u64) << 8 | (sub as u64) << 24 | (tail as u64) << 32).to_le_bytes()
     }
 
     /// Parses the data bytes of a response (what a client reads); `None` unless there are
