@@ -298,8 +298,10 @@ impl<D: CanopenDevice> Node<D> {
     #[inline(never)]
     fn dispatch(&mut self, frame: &Frame, now: Instant) {
         self.due = None;
+        // One number per identifier (`CanId::key`): each test below is one compare.
+        let key = frame.id.key();
         // LSS works in every NMT state and without a node-ID (CiA 305).
-        if frame.id == CanId::Std(lss::RX_ID) && self.lss.enabled() {
+        if key == lss::RX_ID as u32 && self.lss.enabled() {
             let event = self.lss.on_frame(&mut self.ctx, frame, now);
             self.on_lss(event, now);
             self.notify();
@@ -309,31 +311,29 @@ impl<D: CanopenDevice> Node<D> {
         if !self.ctx.configured() || self.nmt == NmtState::Initialising {
             return;
         }
-        let id = self.ctx.node_id as u16;
-        match frame.id {
-            CanId::Std(0) => {
-                if let Some(req) = NmtRequest::parse(frame.payload()) {
-                    if req.addresses(self.ctx.node_id) {
-                        self.on_nmt(req.command, now);
-                    }
+        let id = self.ctx.node_id as u32;
+        if key == 0 {
+            if let Some(req) = NmtRequest::parse(frame.payload()) {
+                if req.addresses(self.ctx.node_id) {
+                    self.on_nmt(req.command, now);
                 }
             }
-            CanId::Std(x) if x == 0x600 + id => {
-                if !frame.rtr && self.nmt.sdo_allowed() {
-                    let Node { ctx, device, sdo, nmt, heartbeat, guarding, pdo, lss, .. } = self;
-                    let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
-                    let mut access = Access { ctx, device, services: &mut services };
-                    let response = sdo.on_request(frame.payload(), now, &mut access);
-                    self.send_sdo(response);
-                }
+        } else if key == 0x600 + id {
+            if !frame.rtr && self.nmt.sdo_allowed() {
+                let Node { ctx, device, sdo, nmt, heartbeat, guarding, pdo, lss, .. } = self;
+                let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
+                let mut access = Access { ctx, device, services: &mut services };
+                let response = sdo.on_request(frame.payload(), now, &mut access);
+                self.send_sdo(response);
             }
-            CanId::Std(x) if x == 0x700 + id => {
-                if frame.rtr {
-                    self.on_guarding_rtr(now);
-                }
+        } else if key == 0x700 + id {
+            if frame.rtr {
+                self.on_guarding_rtr(now);
             }
-            _ if self.pdo.is_sync(frame) => self.on_sync(now),
-            _ => self.on_pdo_frame(frame, now),
+        } else if self.pdo.is_sync(frame) {
+            self.on_sync(now);
+        } else {
+            self.on_pdo_frame(frame, now);
         }
     }
 
