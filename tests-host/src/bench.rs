@@ -10,7 +10,7 @@
 
 use std::hint::black_box;
 
-use od_core::devices::{sgh10, sgh50, wv5800m};
+use od_core::devices::{ap10t, sgh10, sgh50, wv5800m};
 use od_core::node::{CanopenDevice, Node, Output};
 use od_core::storage::{identity, ParamFlash, Region};
 use od_core::{Bitrate, CanId, Frame, Instant};
@@ -39,6 +39,9 @@ impl Workload {
     pub const ALL: [Workload; 6] = [Workload::W1, Workload::W2, Workload::W3, Workload::W4, Workload::W5, Workload::W6];
     /// Those every CANopen device kind runs (W6 is measured on the SGH10).
     pub const W1_W5: [Workload; 5] = [Workload::W1, Workload::W2, Workload::W3, Workload::W4, Workload::W5];
+    /// The AP10T's: it has no synchronous TPDO of position and speed for W3 (its TPDO carries
+    /// the status word).
+    pub const AP10T: [Workload; 4] = [Workload::W1, Workload::W2, Workload::W4, Workload::W5];
 
     /// `W1` ... `W6`.
     pub fn name(self) -> &'static str {
@@ -119,6 +122,7 @@ pub const KINDS: &[Kind] = &[
             run(wv5800m::Wv5800m::new(variant), w, n)
         },
     },
+    Kind { name: "ap10t", workloads: &Workload::AP10T, run: |w, n| run(ap10t::Ap10t::new(), w, n) },
     // The core alone: the SGH10's dictionary without its encoder behaviour (what issue 14's
     // "ours now" measured); the difference to `sgh10` is the device's share.
     Kind { name: "core", workloads: &Workload::W1_W5, run: |w, n| run(crate::TableOnly(sgh10::TABLE), w, n) },
