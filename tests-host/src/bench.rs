@@ -10,10 +10,13 @@
 
 use std::hint::black_box;
 
-use od_core::devices::{ap10t, sgh10, sgh50, wv5800m};
+use od_core::devices::{ap10t, sgh10, sgh50, wv5800m, wv58mr};
+use od_core::j1939::node::J1939Node;
 use od_core::node::{CanopenDevice, Node, Output};
+use od_core::storage::Loaded;
 use od_core::storage::{identity, ParamFlash, Region};
-use od_core::{Bitrate, CanId, Frame, Instant};
+use od_core::wire::j1939::{Address, CamRequest, CamResponse, Identifier, Pgn};
+use od_core::{Bitrate, CanId, Frame, Instant, Station};
 
 use crate::flash::{RamFlash, PAGE, WORD};
 
@@ -42,6 +45,10 @@ impl Workload {
     /// The AP10T's: it has no synchronous TPDO of position and speed for W3 (its TPDO carries
     /// the status word).
     pub const AP10T: [Workload; 4] = [Workload::W1, Workload::W2, Workload::W4, Workload::W5];
+    /// The WV58MR's, on its J1939 node: W1 and W2 as CAM21 parameter accesses (read 1018h.01,
+    /// write the speed PGN's cycle time 3000h.02), W4, W5 a CAM21 request for another address.
+    /// It has no SYNC (W3) and its save (W6) is not measured yet.
+    pub const J1939: [Workload; 4] = [Workload::W1, Workload::W2, Workload::W4, Workload::W5];
 
     /// `W1` ... `W6`.
     pub fn name(self) -> &'static str {
@@ -123,6 +130,7 @@ pub const KINDS: &[Kind] = &[
         },
     },
     Kind { name: "ap10t", workloads: &Workload::AP10T, run: |w, n| run(ap10t::Ap10t::new(), w, n) },
+    Kind { name: "wv58mr", workloads: &Workload::J1939, run: run_j1939 },
     // The core alone: the SGH10's dictionary without its encoder behaviour (what issue 14's
     // "ours now" measured); the difference to `sgh10` is the device's share.
     Kind { name: "core", workloads: &Workload::W1_W5, run: |w, n| run(crate::TableOnly(sgh10::TABLE), w, n) },
@@ -223,6 +231,93 @@ pub fn run<D: CanopenDevice>(device: D, w: Workload, n: u64) -> Result<Extra, St
     Ok(extra)
 }
 
+/// The WV58MR's J1939 workloads: the node boots blank, claims its address (preferred EFh),
+/// then every operation happens at one instant after the claim (999 ms) when nothing is due. The
+/// requests come from address 20h.
+pub fn run_j1939(w: Workload, n: u64) -> Result<Extra, String> {
+    let mut node = J1939Node::boot(wv58mr::Wv58mr::new(wv5800m::Turns::Multi12), &Loaded::Blank);
+    // Through the claim (its start delay and 250 ms) and the first cyclic PGNs, one
+    // millisecond at a time.
+    let mut t = Instant::ZERO;
+    while t < Instant::from_millis(1000) {
+        node.poll(t);
+        while node.next_output().is_some() {}
+        t = t.add_millis(1);
+    }
+    // The last poll's instant: nothing is due before the next deadline.
+    let now = Instant::from_millis(999);
+    if node.next_deadline().is_none_or(|d| d <= now) {
+        return Err(format!("J1939: a timer is due at {now:?}: next deadline {:?}", node.next_deadline()));
+    }
+    let Some(me) = node.source_address() else { return Err("J1939: no address claimed after 1000 ms".into()) };
+    let client = Address(0x20);
+    let read = CamRequest::Read { index: 0x1018, sub: 1 }.frame(me, client);
+    let write = CamRequest::Write { index: 0x3000, sub: 2, value: 1000, len: Some(2) }.frame(me, client);
+    let other = CamRequest::Read { index: 0x1018, sub: 1 }.frame(Address(me.0.wrapping_add(1)), client);
+    let done = match w {
+        Workload::W1 => answers_at(&mut node, &read, now, n),
+        Workload::W2 => answers_at(&mut node, &write, now, n),
+        Workload::W4 => {
+            for _ in 0..n {
+                black_box(&mut node).poll(black_box(now));
+                black_box(black_box(&node).next_deadline());
+            }
+            n
+        }
+        Workload::W5 => {
+            for _ in 0..n {
+                black_box(&mut node).on_frame(black_box(&other), black_box(now));
+            }
+            n
+        }
+        Workload::W3 | Workload::W6 => return Err(format!("{w:?} is not a J1939 workload")),
+    };
+    if done != n {
+        return Err(format!("{w:?}: {done} of {n} operations did what they should"));
+    }
+    if let Some(out) = node.next_output() {
+        return Err(format!("{w:?}: an operation left an extra output: {out:?}"));
+    }
+    // One more, checked in full: the CAM11 answer to the client, or nothing.
+    let cam11 = |f: &Frame, expect: CamResponse| {
+        let id = Identifier::parse(f.id.raw()).ok();
+        id.is_some_and(|id| id.pgn() == Pgn::CAM11 && id.destination() == Some(client) && id.source() == me)
+            && CamResponse::parse(f.payload()) == Ok(expect)
+    };
+    let (frame, expect) = match w {
+        Workload::W1 => (read, Some(CamResponse::Read { index: 0x1018, sub: 1, value: 0x195, len: 4 })),
+        Workload::W2 => (write, Some(CamResponse::Written { index: 0x3000, sub: 2 })),
+        Workload::W4 => {
+            node.poll(now);
+            return match node.next_output() {
+                None => Ok(Extra::default()),
+                Some(out) => Err(format!("W4: output {out:?}")),
+            };
+        }
+        _ => (other, None),
+    };
+    node.on_frame(&frame, now);
+    match (node.next_output(), node.next_output(), expect) {
+        (None, None, None) => Ok(Extra::default()),
+        (Some(Output::Frame(f)), None, Some(e)) if cam11(&f, e) => Ok(Extra::default()),
+        (first, second, _) => Err(format!("{w:?}: unexpected outputs {first:?}, {second:?}")),
+    }
+}
+
+/// Hands `frame` to the node `n` times at `now`, taking one output after each; how many were
+/// frames.
+fn answers_at<S: Station>(node: &mut S, frame: &Frame, now: Instant, n: u64) -> u64 {
+    let mut frames = 0;
+    for _ in 0..n {
+        black_box(&mut *node).on_frame(black_box(frame), black_box(now));
+        if let Some(Output::Frame(f)) = black_box(&mut *node).next_output() {
+            black_box(f);
+            frames += 1;
+        }
+    }
+    frames
+}
+
 /// Page erases so far, over every page.
 fn erase_total(flash: &RamFlash) -> u64 {
     (0..flash.bytes().len() / PAGE).map(|p| u64::from(flash.erase_count(p))).sum()
@@ -234,7 +329,7 @@ fn heartbeat_1000() -> Frame {
 }
 
 /// Hands `frame` to the node `n` times, taking one output after each; how many were frames.
-fn answers<D: CanopenDevice>(node: &mut Node<D>, frame: &Frame, n: u64) -> u64 {
+fn answers<S: Station>(node: &mut S, frame: &Frame, n: u64) -> u64 {
     let mut frames = 0;
     for _ in 0..n {
         black_box(&mut *node).on_frame(black_box(frame), black_box(NOW));
