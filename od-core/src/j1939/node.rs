@@ -29,7 +29,7 @@ use crate::bitrate::Bitrate;
 use crate::context::{BusEvent, Context, Output, ResetKind};
 use crate::device::Device;
 use crate::errors::Gate;
-use crate::frame::Frame;
+use crate::frame::{CanId, Frame};
 use crate::j1939::claim::{AddressClaimer, State};
 use crate::j1939::led::{self, LedInputs};
 use crate::j1939::rx::{self, Filter};
@@ -126,6 +126,9 @@ pub struct J1939Node<D: J1939Device> {
     warning: bool,
     passive: bool,
     generation: u32,
+    /// [`J1939Node::next_deadline`] as the last poll left it, while nothing else has touched
+    /// the node since (`None`: something has): a poll before it has nothing to do.
+    due: Option<Option<Instant>>,
 }
 
 impl<D: J1939Device> J1939Node<D> {
@@ -154,6 +157,7 @@ impl<D: J1939Device> J1939Node<D> {
             warning: false,
             passive: false,
             generation: 0,
+            due: None,
         };
         // Error conditions go out as J1939 EMCY, once the claim stood (D-J1939-20).
         node.ctx.errors.announce_with(announce);
@@ -200,10 +204,27 @@ impl<D: J1939Device> J1939Node<D> {
     }
 
     /// Handles one received frame.
+    #[inline]
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
+        // A message for another node (PDU1, PF below F0h, with a destination that is neither
+        // ours nor global) matters only if it is an address claim (PF EEh), which every claimer
+        // must see: read off the raw identifier, before any parsing.
+        if let CanId::Ext(raw) = frame.id {
+            let (pf, da) = ((raw >> 16) as u8, (raw >> 8) as u8);
+            if pf < 0xF0 && pf != 0xEE && da != Address::GLOBAL.0 && Some(Address(da)) != self.claim.source_address() {
+                return;
+            }
+        }
+        self.dispatch(frame, now);
+    }
+
+    /// A frame the node may act on.
+    #[inline(never)]
+    fn dispatch(&mut self, frame: &Frame, now: Instant) {
         let Ok(id) = Identifier::from_frame(frame) else {
             return;
         };
+        self.due = None;
         let data = frame.payload();
         if id.pgn() == Pgn::ADDRESS_CLAIMED || id.pgn() == Pgn::REQUEST {
             if let Some(f) = self.claim.on_message(&id, data, now) {
@@ -248,6 +269,7 @@ impl<D: J1939Device> J1939Node<D> {
 
     /// The CAN controller reported `event`: the LEDs and the device's diagnosis follow.
     pub fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
+        self.due = None;
         match event {
             BusEvent::ErrorPassive => self.passive = true,
             BusEvent::ErrorActive => self.passive = false,
@@ -264,7 +286,20 @@ impl<D: J1939Device> J1939Node<D> {
     }
 
     /// Runs the timers due at `now`.
+    #[inline]
     pub fn poll(&mut self, now: Instant) {
+        // Nothing has touched the node since the last poll, and its next deadline is later.
+        if let Some(due) = self.due {
+            if due.is_none_or(|d| now < d) {
+                return;
+            }
+        }
+        self.poll_all(now);
+        self.due = Some(self.deadline());
+    }
+
+    #[inline(never)]
+    fn poll_all(&mut self, now: Instant) {
         if !self.started {
             self.started = true;
             self.claim.start_delayed(now);
@@ -288,8 +323,16 @@ impl<D: J1939Device> J1939Node<D> {
         }
     }
 
-    /// When [`J1939Node::poll`] must next run.
+    /// When [`J1939Node::poll`] must next run; a poll before it does nothing.
+    #[inline]
     pub fn next_deadline(&self) -> Option<Instant> {
+        match self.due {
+            Some(due) => due,
+            None => self.deadline(),
+        }
+    }
+
+    fn deadline(&self) -> Option<Instant> {
         if !self.started {
             return Some(Instant::ZERO);
         }
@@ -307,6 +350,7 @@ impl<D: J1939Device> J1939Node<D> {
     /// The shell has finished (`Ok`) or failed the [`Output::Store`] it was given: the CAM11
     /// answer to the 1010h write goes out now.
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
+        self.due = None;
         self.ctx.store_done(result.is_ok(), now);
         let reply = self.sdo.complete_deferred(result.map_err(|()| Abort::CANNOT_STORE));
         if let (Some(r), Some(rq), Some(sa)) = (reply, self.deferred_to.take(), self.claim.source_address()) {
@@ -468,6 +512,93 @@ impl<D: J1939Device> DeviceStation for J1939Node<D> {
         &self.device
     }
     fn split(&mut self) -> (&mut D, &mut Context) {
+        self.due = None;
         (&mut self.device, &mut self.ctx)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::devices::wv5800m::Turns;
+    use crate::devices::wv58mr::Wv58mr;
+    use crate::encoder::{Encoder, SensorFault};
+    use crate::wire::j1939::{AddressClaimed, CamRequest, Request};
+
+    /// A random input for a WV58MR at `me`: claims of other NAMEs (lower and higher than any
+    /// WV58MR's), requests, CAM21 reads and writes (cycle times, save), frames for others.
+    fn frame(x: u32, me: Address) -> Frame {
+        let other = Address(0x20);
+        let v = x >> 8;
+        match x % 10 {
+            0 => AddressClaimed { name: Name::from_raw(1) }.frame(Address(0xEF)),
+            1 => AddressClaimed { name: Name::from_raw(u64::MAX >> 1) }.frame(me),
+            2 => Request { pgn: Pgn::ADDRESS_CLAIMED }.frame(Address::GLOBAL, other),
+            3 => Request { pgn: Pgn::EPOS }.frame(me, other),
+            4 => CamRequest::Read { index: 0x6004, sub: 0 }.frame(me, other),
+            5 => CamRequest::Write { index: 0x3000, sub: 2 + (v % 2) as u8, value: v % 200, len: Some(2) }.frame(me, other),
+            6 => CamRequest::Write { index: 0x1010, sub: 1, value: 0x6576_6173, len: Some(4) }.frame(me, other),
+            7 => CamRequest::Read { index: 0x1018, sub: 1 }.frame(Address(me.0 ^ 1), other),
+            8 => Request { pgn: Pgn::ESPD }.frame(Address::GLOBAL, other),
+            _ => CamRequest::Write { index: 0x6200, sub: 0, value: v % 100, len: Some(2) }.frame(me, other),
+        }
+    }
+
+    /// A poll before the remembered deadline does exactly what a full poll does: two nodes get
+    /// the same random frames, bus events, samples and polls; one forgets its deadline before
+    /// every poll; their outputs and deadlines never differ.
+    #[test]
+    fn a_poll_before_the_deadline_is_a_full_poll() {
+        for seed in 0..6u32 {
+            let make = || J1939Node::boot(Wv58mr::new(Turns::Multi12), &Loaded::Blank);
+            let (mut a, mut b) = (make(), make());
+            let (mut x, mut t, mut skipped) = (seed, 0u64, 0);
+            for step in 0..6000 {
+                x = x.wrapping_mul(1_103_515_245).wrapping_add(12345);
+                let now = Instant::from_micros(t);
+                let me = a.source_address().unwrap_or(Address(0xEF));
+                match (x >> 28) % 8 {
+                    0..=2 => {
+                        let f = frame(x >> 4, me);
+                        a.on_frame(&f, now);
+                        b.on_frame(&f, now);
+                    }
+                    3 => {
+                        let raw = if (x >> 8) % 5 == 0 { Err(SensorFault::Diagnosis) } else { Ok((x >> 8) % (1 << 24)) };
+                        let (d, c) = DeviceStation::split(&mut a);
+                        d.on_sample(c, raw, now);
+                        let (d, c) = DeviceStation::split(&mut b);
+                        d.on_sample(c, raw, now);
+                    }
+                    4 => {
+                        let e = [BusEvent::ErrorPassive, BusEvent::ErrorActive, BusEvent::BusOff, BusEvent::BusOffRecovered]
+                            [(x >> 8) as usize % 4];
+                        a.on_bus_event(e, now);
+                        b.on_bus_event(e, now);
+                    }
+                    _ => {
+                        skipped += a.due.is_some_and(|d| d.is_none_or(|d| now < d)) as u32;
+                        a.poll(now);
+                        b.due = None;
+                        b.poll(now);
+                    }
+                }
+                loop {
+                    let (oa, ob) = (a.next_output(), b.next_output());
+                    assert_eq!(oa, ob, "seed {seed} step {step} at {t} µs");
+                    match oa {
+                        Some(Output::Store(_)) => {
+                            a.store_done(Ok(()), now);
+                            b.store_done(Ok(()), now);
+                        }
+                        Some(_) => {}
+                        None => break,
+                    }
+                }
+                assert_eq!(a.next_deadline(), b.deadline(), "seed {seed} step {step} at {t} µs");
+                t += [0, 1, 100, 999, 1000, 7_000, 60_000][(x >> 12) as usize % 7];
+            }
+            assert!(skipped > 100, "{skipped} polls skipped");
+        }
     }
 }
