@@ -126,6 +126,9 @@ pub struct J1939Node<D: J1939Device> {
     warning: bool,
     passive: bool,
     generation: u32,
+    /// The positions of the 3000h cycle time and priority of each cyclic group
+    /// ([`PGN_PARAMETERS`]), found once at boot.
+    pgn_pos: [(Option<u8>, Option<u8>); 3],
     /// [`J1939Node::next_deadline`] as the last poll left it, while nothing else has touched
     /// the node since (`None`: something has): a poll before it has nothing to do.
     due: Option<Option<Instant>>,
@@ -158,7 +161,10 @@ impl<D: J1939Device> J1939Node<D> {
             passive: false,
             generation: 0,
             due: None,
+            pgn_pos: [(None, None); 3],
         };
+        let at = |sub| node.ctx.od.pos(0x3000, sub).map(|p| p as u8);
+        node.pgn_pos = PGN_PARAMETERS.map(|(_, cycle, prio)| (at(cycle), at(prio)));
         // Error conditions go out as J1939 EMCY, once the claim stood (D-J1939-20).
         node.ctx.errors.announce_with(announce);
         node.ctx.errors.set_gate(Gate::Drop);
@@ -259,7 +265,11 @@ impl<D: J1939Device> J1939Node<D> {
             // A deferred write (1010h "save"): the answer follows the store.
             None => self.deferred_to = Some(requester),
         }
-        self.sync_schedule(now);
+        // Only a write (an initiate download, 001b in the command's top bits) can change the
+        // cycle times and priorities the scheduler follows (3000h, and 6200h linked to it).
+        if data.first().is_some_and(|cs| cs >> 5 == 1) {
+            self.sync_schedule(now);
+        }
         match self.device.take_command() {
             Some(Command::InitialiseSae) => self.restart_claim(now),
             Some(Command::Restart) => self.restart(now),
@@ -384,9 +394,12 @@ impl<D: J1939Device> J1939Node<D> {
 
     /// The scheduler takes the cycle times and priorities the dictionary holds (3000h).
     fn sync_schedule(&mut self, now: Instant) {
-        for (pgn, cycle, prio) in PGN_PARAMETERS {
-            let c = self.ctx.od.value(0x3000, cycle).unwrap_or(0) as u16;
-            let p = Priority::new(self.ctx.od.value(0x3000, prio).unwrap_or(6) as u8).unwrap_or(Priority::DEFAULT);
+        for (k, (pgn, _, _)) in PGN_PARAMETERS.into_iter().enumerate() {
+            let (cycle, prio) = self.pgn_pos[k];
+            let od = &self.ctx.od;
+            let c = cycle.map_or(0, |pos| od.get(pos as usize)) as u16;
+            let p = prio.map_or(6, |pos| od.get(pos as usize)) as u8;
+            let p = Priority::new(p).unwrap_or(Priority::DEFAULT);
             if self.cyclic.get(pgn).map(|g| g.0) != Some(c) {
                 self.cyclic.set_cycle(pgn, c, now);
             }
