@@ -42,7 +42,7 @@ impl Services for NoServices {
 }
 
 /// Finds and checks (index, sub) for reading.
-#[inline]
+#[inline(always)]
 fn readable(ctx: &Context, index: u16, sub: u8) -> Result<usize, Abort> {
     let pos = ctx.od.find(index, sub)?;
     ctx.od.check_read(pos)?;
@@ -68,7 +68,7 @@ pub fn read(ctx: &Context, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize,
 
 /// The value at (index, sub) when it is a number (4 bytes or fewer): its bytes and size;
 /// `Ok(None)` for a string.
-#[inline]
+#[inline(always)]
 pub fn read_short(ctx: &Context, index: u16, sub: u8) -> Result<Option<([u8; 4], usize)>, Abort> {
     let pos = readable(ctx, index, sub)?;
     let e = ctx.od.entry(pos);
@@ -151,7 +151,7 @@ impl<D: Device, S: Services> ObjectAccess for Access<'_, D, S> {
         read_size(self.ctx, index, sub)
     }
 
-    #[inline]
+    #[inline(always)]
     fn read_short(&mut self, index: u16, sub: u8) -> Result<Option<([u8; 4], usize)>, Abort> {
         read_short(self.ctx, index, sub)
     }
