@@ -699,7 +699,7 @@ impl Od {
 
     /// Decodes `data` written by an SDO client to `pos` and checks access, length and
     /// limits; returns the raw value to store. Nothing is changed.
-    #[inline]
+    #[inline(always)]
     pub fn check_write(&self, pos: usize, data: &[u8]) -> Result<u32, Abort> {
         let e = &self.table[pos];
         if e.access == Access::PdoOnly {
