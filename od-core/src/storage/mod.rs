@@ -3,8 +3,10 @@
 //!
 //! Three layers:
 //! - [`image`]: the stored values as records keyed by (index, sub-index) and their byte layout;
-//! - [`flash`]: a ring of flash pages over `embedded_storage::nor_flash::NorFlash`, where each
-//!   save goes to the next page and counts only once its commit marker is written;
+//! - [`flash`]: a ring of flash pages over `embedded_storage::nor_flash::NorFlash`: a save
+//!   appends the records it changes to the newest page's log and counts only once the entry's
+//!   commit unit is written; a page is erased only when the newest one is full, to start again
+//!   with the whole image;
 //! - this module: what the node does with them. At power-on the dictionary is built from the
 //!   image ([`Loaded`]); a 1010h "save" asks the shell for an `Output::Store`; a 1011h "load"
 //!   marks groups whose factory defaults the next NMT reset loads; an NMT reset loads the
@@ -79,12 +81,20 @@ fn is_log(e: &Entry) -> bool {
     e.index == 0x1003
 }
 
+/// The bits of the user groups (Comm, App, Manuf) in a [`GroupMask`].
+const USER_GROUPS: u8 = GroupMask::ALL.0;
+/// The bits of a [`GroupMask`] that select entries by their hook.
+const BY_HOOK: u8 = GroupMask::LSS.0 | GroupMask::NODE_ID.0 | GroupMask::BITRATE.0;
+
 /// Does a store of `mask` write the entry?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
-    (is_user(e) && mask.contains(e.group))
-        || (mask.0 & GroupMask::LSS.0 != 0 && is_pending(e))
-        || (mask.0 & GroupMask::NODE_ID.0 != 0 && e.hook == Hook::Core(CoreHook::PendingNodeId))
-        || (mask.0 & GroupMask::BITRATE.0 != 0 && e.hook == Hook::Core(CoreHook::PendingBitrate))
+    // A user entry in a selected group: its group's bit is in the mask (Factory's and None's
+    // bits are outside USER_GROUPS).
+    e.group.bit() & mask.0 & USER_GROUPS != 0
+        || (mask.0 & BY_HOOK != 0
+            && ((mask.0 & GroupMask::LSS.0 != 0 && is_pending(e))
+                || (mask.0 & GroupMask::NODE_ID.0 != 0 && e.hook == Hook::Core(CoreHook::PendingNodeId))
+                || (mask.0 & GroupMask::BITRATE.0 != 0 && e.hook == Hook::Core(CoreHook::PendingBitrate))))
 }
 
 /// The user-stored entries as (slot in [`Storage`], position in the table, entry).
@@ -101,6 +111,8 @@ pub struct Storage {
     at_default: u64,
     /// Groups a 1011h "load" marked: the next reset loads their factory defaults.
     restore: GroupMask,
+    /// The node-ID every entry's `at_default` bit was computed for (`None`: not all the same).
+    captured_id: Option<u8>,
     /// The store the shell is performing.
     saving: Option<GroupMask>,
     /// The power-on found no usable image (reported by EMCY until a save succeeds).
@@ -123,20 +135,30 @@ impl Storage {
         self.saving.is_some()
     }
 
-    /// Records the current values of the entries `select` picks as the stored ones.
-    fn capture(&mut self, od: &Od, node_id: u8, select: impl Fn(&Entry) -> bool) {
+    /// Records the current values of the entries a store of `mask` writes (every user-stored
+    /// entry with `None`) as the stored ones. While every entry's `at_default` is known for this
+    /// node-ID, an entry whose value is the one recorded is left as it is: only a changed value
+    /// needs its default compared.
+    fn capture(&mut self, od: &Od, node_id: u8, mask: Option<GroupMask>) {
+        let all = mask.is_none_or(|m| m.0 & USER_GROUPS == USER_GROUPS);
+        let known = self.captured_id == Some(node_id);
         for (k, pos, e) in user_entries(od.table()) {
-            if select(e) {
-                let value = od.get(pos);
-                self.stored[k] = value;
-                let bit = 1u64 << k;
-                if value == e.default_value(node_id) {
-                    self.at_default |= bit;
-                } else {
-                    self.at_default &= !bit;
-                }
+            if !all && !mask.is_some_and(|m| selected(e, m)) {
+                continue;
+            }
+            let value = od.get(pos);
+            if known && value == self.stored[k] {
+                continue;
+            }
+            self.stored[k] = value;
+            let bit = 1u64 << k;
+            if value == e.default_value(node_id) {
+                self.at_default |= bit;
+            } else {
+                self.at_default &= !bit;
             }
         }
+        self.captured_id = if all || known { Some(node_id) } else { None };
     }
 }
 
@@ -166,10 +188,11 @@ pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -
         stored: [0; MAX_STORED],
         at_default: 0,
         restore: GroupMask::default(),
+        captured_id: None,
         saving: None,
         fault: *loaded == Loaded::Invalid,
     };
-    storage.capture(&od, node_id, |_| true);
+    storage.capture(&od, node_id, None);
     (od, storage, node_id)
 }
 
@@ -209,7 +232,7 @@ impl Storage {
         if !ok {
             return false;
         }
-        self.capture(od, node_id, |e| selected(e, mask));
+        self.capture(od, node_id, Some(mask));
         core::mem::replace(&mut self.fault, false)
     }
 
@@ -270,15 +293,41 @@ pub trait Parameters {
 /// (notably the COB-IDs "+ node-ID") follow a later node-ID change. Records of entries the
 /// dictionary no longer declares, or can no longer take, are dropped.
 pub fn merge(image: &mut Image, od: &Od, node_id: u8, mask: GroupMask) -> Result<(), image::Full> {
-    image.retain(|r| od.pos(r.index, r.sub).is_some_and(|p| r.fits(od.entry(p))));
+    let mut merged = Image::new();
+    merge_into(image, &mut merged, od, node_id, mask)?;
+    *image = merged;
+    Ok(())
+}
+
+/// [`merge`] of `old` into the empty `new`: one pass over the dictionary and the old records
+/// side by side (both sorted by index and sub-index).
+pub(crate) fn merge_into(
+    old: &Image,
+    new: &mut Image,
+    od: &Od,
+    node_id: u8,
+    mask: GroupMask,
+) -> Result<(), image::Full> {
+    let olds = old.records();
+    let mut i = 0;
     for (pos, e) in od.table().iter().enumerate() {
-        let factory = e.group == Group::Factory && image.get(e.index, e.sub).is_none();
-        if selected(e, mask) || factory {
+        let key = (e.index, e.sub);
+        // Records of keys the dictionary does not declare are passed over: dropped.
+        while olds.get(i).is_some_and(|r| r.key() < key) {
+            i += 1;
+        }
+        let stored = olds.get(i).filter(|r| r.key() == key);
+        i += usize::from(stored.is_some());
+        let kept = stored.filter(|r| r.fits(e));
+        let record = if selected(e, mask) || (e.group == Group::Factory && kept.is_none()) {
             let value = od.get(pos);
-            if value == e.default_value(node_id) {
-                image.remove(e.index, e.sub);
-            } else {
-                image.set(Record::of(e, value))?;
+            (value != e.default_value(node_id)).then(|| Record::of(e, value))
+        } else {
+            kept.copied()
+        };
+        if let Some(r) = record {
+            if !new.push_sorted(r) {
+                return Err(image::Full);
             }
         }
     }
