@@ -226,12 +226,10 @@ impl<F: NorFlash> ParamFlash<F> {
         Ok(())
     }
 
-    /// The newest page as known, reading the ring if it is not.
-    fn newest(&mut self) -> Option<Newest> {
-        match core::mem::replace(&mut self.known, Known::Unread) {
-            Known::Unread => self.read_ring().ok(),
-            Known::Nothing => None,
-            Known::Newest(n) => Some(n),
+    /// Reads the ring unless what it holds is known.
+    fn know(&mut self) {
+        if matches!(self.known, Known::Unread) {
+            self.known = self.read_ring().map_or(Known::Nothing, Known::Newest);
         }
     }
 
@@ -239,94 +237,55 @@ impl<F: NorFlash> ParamFlash<F> {
     /// groups in `mask` (see [`super::merge`]) becomes the newest image. Only what changed is
     /// written, into the newest page's log while it has room.
     pub fn save(&mut self, params: &impl Parameters, mask: GroupMask) -> Result<(), SaveError<F::Error>> {
+        static EMPTY: Image = Image::new();
         self.check_region()?;
-        let newest = self.newest();
+        self.know();
         let mut image = Image::new();
-        let old = newest.as_ref().map(|n| &n.image);
-        if merge_into(old.unwrap_or(&Image::new()), &mut image, params.od(), params.node_id(), mask).is_err() {
-            self.known = newest.map_or(Known::Nothing, Known::Newest);
-            return Err(SaveError::TooLarge);
+        let old = match &self.known {
+            Known::Newest(n) => &n.image,
+            _ => &EMPTY,
+        };
+        let count =
+            merge_into(old, &mut image, params.od(), params.node_id(), mask).map_err(|_| SaveError::TooLarge)?;
+        let result = match &mut self.known {
+            Known::Newest(_) if count == 0 => return Ok(()),
+            Known::Newest(n) => match n.end.filter(|&end| end as usize + (count + 1) * UNIT <= F::ERASE_SIZE) {
+                Some(end) if count <= u8::MAX as usize => {
+                    let base = self.region.offset + n.page * F::ERASE_SIZE as u32;
+                    append(&mut self.flash, base, n, end, &image, count as u8)
+                }
+                _ => {
+                    let previous = Some((n.page, n.sequence));
+                    self.start_page(image, previous)
+                }
+            },
+            _ => self.start_page(image, None),
+        };
+        if result.is_err() {
+            self.known = Known::Unread;
         }
-        self.store(newest, image)
+        result
     }
 
     /// Makes `image` the newest image as it is, on a page of its own (factory programming,
     /// tools, tests).
     pub fn write(&mut self, image: &Image) -> Result<(), SaveError<F::Error>> {
         self.check_region()?;
-        let previous = self.newest().map(|n| (n.page, n.sequence));
-        let result = self.start_page(image.clone(), previous);
-        self.settle(result)
-    }
-
-    /// Makes `image` (a merge: no record of size 0) the newest image, `newest` being the
-    /// newest page before: nothing to write if it holds `image` already, an entry in its log
-    /// if there is room, else the next page.
-    fn store(&mut self, newest: Option<Newest>, image: Image) -> Result<(), SaveError<F::Error>> {
-        let result = match newest {
-            Some(n) => {
-                let count = changes(&n.image, &image).count();
-                let room = n.end.filter(|&end| end as usize + (count + 1) * UNIT <= F::ERASE_SIZE);
-                match room {
-                    _ if count == 0 => Ok(n),
-                    Some(end) if count <= u8::MAX as usize => self.append(n, end, image, count as u8),
-                    _ => self.start_page(image, Some((n.page, n.sequence))),
-                }
-            }
-            None => self.start_page(image, None),
+        self.know();
+        let previous = match &self.known {
+            Known::Newest(n) => Some((n.page, n.sequence)),
+            _ => None,
         };
-        self.settle(result)
-    }
-
-    /// Keeps the newest page a store made, or forgets what was known after a failed one.
-    fn settle(&mut self, result: Result<Newest, SaveError<F::Error>>) -> Result<(), SaveError<F::Error>> {
-        match result {
-            Ok(n) => {
-                self.known = Known::Newest(n);
-                Ok(())
-            }
-            Err(e) => {
-                self.known = Known::Unread;
-                Err(e)
-            }
+        let result = self.start_page(image.clone(), previous);
+        if result.is_err() {
+            self.known = Known::Unread;
         }
-    }
-
-    /// Writes `program` at `at` and reads it back.
-    fn program(&mut self, at: u32, program: &[u8; UNIT]) -> Result<(), SaveError<F::Error>> {
-        self.flash.write(at, program).map_err(SaveError::Flash)?;
-        let mut back = [0u8; UNIT];
-        self.flash.read(at, &mut back).map_err(SaveError::Flash)?;
-        if back != *program {
-            return Err(SaveError::Verify);
-        }
-        Ok(())
-    }
-
-    /// Appends the `count` records that turn `n`'s image into `image` to its log at `end`, then
-    /// the entry's commit unit.
-    fn append(&mut self, n: Newest, end: u32, image: Image, count: u8) -> Result<Newest, SaveError<F::Error>> {
-        let base = self.page(n.page);
-        let mut at = base + end;
-        let mut crc = image::log_crc(n.sequence);
-        for r in changes(&n.image, &image) {
-            let unit = r.encode();
-            self.program(at, &unit)?;
-            crc.update(&unit);
-            at += UNIT as u32;
-        }
-        let commit = image::log_commit(count, crc);
-        if let Err(e) = self.program(at, &commit) {
-            // Make sure the entry never counts: programming zeros is always possible.
-            let _ = self.flash.write(at, &[0; UNIT]);
-            return Err(e);
-        }
-        Ok(Newest { end: Some(at + UNIT as u32 - base), image, ..n })
+        result
     }
 
     /// Starts the page after `previous` (page 0 on a ring with no valid image) with the whole
     /// `image`.
-    fn start_page(&mut self, image: Image, previous: Option<(u32, u32)>) -> Result<Newest, SaveError<F::Error>> {
+    fn start_page(&mut self, image: Image, previous: Option<(u32, u32)>) -> Result<(), SaveError<F::Error>> {
         let page_size = F::ERASE_SIZE as u32;
         if image::slot_size(image.len()) > F::ERASE_SIZE {
             return Err(SaveError::TooLarge);
@@ -362,8 +321,50 @@ impl<F: NorFlash> ParamFlash<F> {
             return Err(SaveError::Verify);
         }
         let end = image::slot_size(image.len()) as u32;
-        Ok(Newest { page: n, sequence, end: Some(end), image })
+        self.known = Known::Newest(Newest { page: n, sequence, end: Some(end), image });
+        Ok(())
     }
+}
+
+/// Writes `unit` at `at` and reads it back.
+fn program<F: NorFlash>(flash: &mut F, at: u32, unit: &[u8; UNIT]) -> Result<(), SaveError<F::Error>> {
+    flash.write(at, unit).map_err(SaveError::Flash)?;
+    let mut back = [0u8; UNIT];
+    flash.read(at, &mut back).map_err(SaveError::Flash)?;
+    if back != *unit {
+        return Err(SaveError::Verify);
+    }
+    Ok(())
+}
+
+/// Appends the `count` records that turn `n`'s image (on the page at `base`) into `image` to
+/// its log at `end`, then the entry's commit unit; `n` then holds `image`.
+fn append<F: NorFlash>(
+    flash: &mut F,
+    base: u32,
+    n: &mut Newest,
+    end: u32,
+    image: &Image,
+    count: u8,
+) -> Result<(), SaveError<F::Error>> {
+    let mut at = base + end;
+    let mut crc = image::log_crc(n.sequence);
+    for r in changes(&n.image, image) {
+        let unit = r.encode();
+        program(flash, at, &unit)?;
+        crc.update(&unit);
+        at += UNIT as u32;
+    }
+    debug_assert_eq!(at - base - end, count as u32 * UNIT as u32, "the merge counted every change");
+    let commit = image::log_commit(count, crc);
+    if let Err(e) = program(flash, at, &commit) {
+        // Make sure the entry never counts: programming zeros is always possible.
+        let _ = flash.write(at, &[0; UNIT]);
+        return Err(e);
+    }
+    n.end = Some(at + UNIT as u32 - base);
+    n.image.assign(image);
+    Ok(())
 }
 
 /// The log records that turn `old` into `new`: each record of `new` that `old` does not hold

@@ -236,6 +236,13 @@ impl Image {
         }
     }
 
+    /// Makes this image a copy of `other` (copying only the records it holds).
+    pub fn assign(&mut self, other: &Image) {
+        self.records.clear();
+        // Same capacity: the records always fit.
+        let _ = self.records.extend_from_slice(&other.records);
+    }
+
     /// Keeps only the records `keep` approves.
     pub fn retain(&mut self, keep: impl FnMut(&Record) -> bool) {
         self.records.retain(keep);

@@ -34,6 +34,8 @@ pub const LOAD: u32 = 0x6461_6F6C;
 pub const EMCY_DATA_SET: u16 = 0x6300;
 /// Most user-stored entries (groups Comm, App, Manuf) a dictionary may declare.
 pub const MAX_STORED: usize = 64;
+// [`Storage`] keeps table positions in a byte.
+const _: () = assert!(crate::od::MAX_ENTRIES <= 256);
 
 /// What the parameter flash held at power-on.
 // The image is not boxed: no allocation. It lives only while the node powers on.
@@ -105,6 +107,10 @@ fn user_entries(table: &'static [Entry]) -> impl Iterator<Item = (usize, usize, 
 /// The node's view of its non-volatile parameters.
 #[derive(Clone, Debug)]
 pub struct Storage {
+    /// Position in the table of each user-stored entry (slot k of `stored`).
+    slots: [u8; MAX_STORED],
+    /// Number of user-stored entries.
+    count: usize,
     /// What the flash holds for each user-stored entry: the value an NMT reset loads.
     stored: [u32; MAX_STORED],
     /// Bit k: entry k is stored at its default, so it follows the node-ID (COB-IDs "+ node-ID").
@@ -142,12 +148,14 @@ impl Storage {
     fn capture(&mut self, od: &Od, node_id: u8, mask: Option<GroupMask>) {
         let all = mask.is_none_or(|m| m.0 & USER_GROUPS == USER_GROUPS);
         let known = self.captured_id == Some(node_id);
-        for (k, pos, e) in user_entries(od.table()) {
-            if !all && !mask.is_some_and(|m| selected(e, m)) {
-                continue;
-            }
+        for k in 0..self.count {
+            let pos = self.slots[k] as usize;
             let value = od.get(pos);
             if known && value == self.stored[k] {
+                continue;
+            }
+            let e = od.entry(pos);
+            if !all && !mask.is_some_and(|m| selected(e, m)) {
                 continue;
             }
             self.stored[k] = value;
@@ -185,6 +193,8 @@ pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -
         }
     }
     let mut storage = Storage {
+        slots: [0; MAX_STORED],
+        count: 0,
         stored: [0; MAX_STORED],
         at_default: 0,
         restore: GroupMask::default(),
@@ -192,6 +202,11 @@ pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -
         saving: None,
         fault: *loaded == Loaded::Invalid,
     };
+    for (k, pos, _) in user_entries(table) {
+        // MAX_ENTRIES (160) positions fit a byte.
+        storage.slots[k] = pos as u8;
+        storage.count = k + 1;
+    }
     storage.capture(&od, node_id, None);
     (od, storage, node_id)
 }
@@ -299,39 +314,59 @@ pub fn merge(image: &mut Image, od: &Od, node_id: u8, mask: GroupMask) -> Result
     Ok(())
 }
 
+/// The key of an entry or record as one number: index << 8 | sub-index.
+fn key(index: u16, sub: u8) -> u32 {
+    (index as u32) << 8 | sub as u32
+}
+
 /// [`merge`] of `old` into the empty `new`: one pass over the dictionary and the old records
-/// side by side (both sorted by index and sub-index).
+/// side by side (both sorted by index and sub-index). Returns how many keys changed (records
+/// added, changed or dropped): the records a log entry of this save holds.
 pub(crate) fn merge_into(
     old: &Image,
     new: &mut Image,
     od: &Od,
     node_id: u8,
     mask: GroupMask,
-) -> Result<(), image::Full> {
+) -> Result<usize, image::Full> {
     let olds = old.records();
-    let mut i = 0;
+    let groups = mask.0 & USER_GROUPS;
+    let by_hook = mask.0 & BY_HOOK != 0;
+    let (mut i, mut changed) = (0, 0);
     for (pos, e) in od.table().iter().enumerate() {
-        let key = (e.index, e.sub);
-        // Records of keys the dictionary does not declare are passed over: dropped.
-        while olds.get(i).is_some_and(|r| r.key() < key) {
-            i += 1;
+        if e.group == Group::None && !by_hook {
+            // Not a stored entry (the common case): a record of it is passed over below.
+            continue;
         }
-        let stored = olds.get(i).filter(|r| r.key() == key);
+        let k = key(e.index, e.sub);
+        // Records of keys the dictionary does not declare, or does not store, are passed
+        // over: dropped.
+        while olds.get(i).is_some_and(|r| key(r.index, r.sub) < k) {
+            i += 1;
+            changed += 1;
+        }
+        let stored = olds.get(i).filter(|r| key(r.index, r.sub) == k);
         i += usize::from(stored.is_some());
-        let kept = stored.filter(|r| r.fits(e));
-        let record = if selected(e, mask) || (e.group == Group::Factory && kept.is_none()) {
+        let bit = e.group.bit();
+        let take = bit & groups != 0
+            || (by_hook && selected(e, mask))
+            || (e.group == Group::Factory && !stored.is_some_and(|r| r.fits(e)));
+        let record = if take {
             let value = od.get(pos);
             (value != e.default_value(node_id)).then(|| Record::of(e, value))
         } else {
-            kept.copied()
+            stored.filter(|r| r.fits(e)).copied()
         };
+        if record.as_ref() != stored {
+            changed += 1;
+        }
         if let Some(r) = record {
             if !new.push_sorted(r) {
                 return Err(image::Full);
             }
         }
     }
-    Ok(())
+    Ok(changed + olds.len() - i)
 }
 
 #[cfg(test)]
