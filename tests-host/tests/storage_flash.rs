@@ -4,7 +4,7 @@
 use embedded_storage::nor_flash::NorFlash;
 use od_core::devices::sgh10;
 use od_core::od::GroupMask;
-use od_core::storage::{identity, Image, Loaded, ParamFlash, Region, SaveError};
+use od_core::storage::{identity, merge, Image, Loaded, ParamFlash, Record, Region, SaveError};
 use od_core::{Bitrate, Node};
 use proptest::prelude::*;
 use tests_host::flash::{FlashError, RamFlash, PAGE};
@@ -253,6 +253,94 @@ fn region_misuse_is_an_error_not_a_panic() {
     assert_eq!(odd.save(node(&[]).core(), GroupMask::ALL), Err(SaveError::Region));
 }
 
+/// Two pages as the firmware before the log (format version 1, commit c6e6f60) left them on an
+/// SGH10 after two saves: 1017h = 100, 1018h.04 = 12345678h, 5F0Ah.01 = 5, 6000h = 0Ch, then
+/// 1017h = 250 and 6002h = 5000. Captured from that firmware's `ParamFlash::save`.
+const V1_PAGE_0: [u8; 64] = [
+    0xA5, 0x5A, 0xC3, 0x3C, 0x50, 0x41, 0x52, 0x4D, 0x53, 0x4B, 0x50, 0x49, 0x01, 0x00, 0x04, 0x00, 0x90, 0xFD, 0x2A,
+    0x45, 0x01, 0x00, 0x00, 0x00, 0xFF, 0xFF, 0xFF, 0xFF, 0x4E, 0x26, 0x43, 0x9D, 0x17, 0x10, 0x00, 0x02, 0x64, 0x00,
+    0x00, 0x00, 0x18, 0x10, 0x04, 0x04, 0x78, 0x56, 0x34, 0x12, 0x0A, 0x5F, 0x01, 0x01, 0x05, 0x00, 0x00, 0x00, 0x00,
+    0x60, 0x00, 0x02, 0x0C, 0x00, 0x00, 0x00,
+];
+const V1_PAGE_1: [u8; 72] = [
+    0xA5, 0x5A, 0xC3, 0x3C, 0x50, 0x41, 0x52, 0x4D, 0x53, 0x4B, 0x50, 0x49, 0x01, 0x00, 0x05, 0x00, 0x90, 0xFD, 0x2A,
+    0x45, 0x02, 0x00, 0x00, 0x00, 0xFF, 0xFF, 0xFF, 0xFF, 0x6E, 0x45, 0x05, 0x27, 0x17, 0x10, 0x00, 0x02, 0xFA, 0x00,
+    0x00, 0x00, 0x18, 0x10, 0x04, 0x04, 0x78, 0x56, 0x34, 0x12, 0x0A, 0x5F, 0x01, 0x01, 0x05, 0x00, 0x00, 0x00, 0x00,
+    0x60, 0x00, 0x02, 0x0C, 0x00, 0x00, 0x00, 0x02, 0x60, 0x00, 0x04, 0x88, 0x13, 0x00, 0x00,
+];
+
+/// The ring as a board in the field holds it: the two version-1 pages and one blank.
+fn version_1_flash() -> ParamFlash<RamFlash> {
+    let mut bytes = vec![0xFF; (1 + PAGES as usize) * PAGE];
+    bytes[PAGE..PAGE + 64].copy_from_slice(&V1_PAGE_0);
+    bytes[2 * PAGE..2 * PAGE + 72].copy_from_slice(&V1_PAGE_1);
+    params(RamFlash::from_bytes(bytes))
+}
+
+#[test]
+fn an_image_of_the_format_before_the_log_still_loads() {
+    let mut p = version_1_flash();
+    let rec = |index, sub, size, value| Record { index, sub, size, value };
+    let expected: Image = {
+        let mut i = Image::new();
+        for r in [rec(0x1017, 0, 2, 250), rec(0x1018, 4, 4, 0x1234_5678), rec(0x5F0A, 1, 1, 5), rec(0x6000, 0, 2, 0x0C)]
+            .into_iter()
+            .chain([rec(0x6002, 0, 4, 5000)])
+        {
+            i.set(r).unwrap();
+        }
+        i
+    };
+    assert_eq!(p.load(), Loaded::Image(expected.clone()));
+    // The node boots from it.
+    let node = Node::boot(TableOnly(sgh10::TABLE), &p.load());
+    assert_eq!((node.core().node_id, node.core().od.value(0x6002, 0)), (5, Some(5000)));
+    // A save that changes nothing leaves it as it is; the first that changes something starts
+    // a page of the current format (version 1 pages take no log), and the factory record stays.
+    let mut same = p.clone();
+    let ops = same.flash().ops();
+    same.save(node.core(), GroupMask::ALL).unwrap();
+    assert_eq!(same.flash().ops(), ops);
+    let mut node = node;
+    node.split().1.od.set_value(0x1017, 0, 300);
+    p.save(node.core(), GroupMask::ALL).unwrap();
+    assert_eq!(p.flash().erase_count(3), 1);
+    assert_eq!(&p.flash().bytes()[2 * PAGE..2 * PAGE + 72], &V1_PAGE_1, "the old page is not touched");
+    let mut now = expected;
+    now.set(rec(0x1017, 0, 2, 300)).unwrap();
+    assert_eq!(params(p.flash().clone()).load(), Loaded::Image(now));
+}
+
+#[test]
+fn the_first_save_after_a_version_1_image_survives_every_cut() {
+    // 1 erase, 5 records, the header and the marker: the whole image on a new page.
+    let ops = sweep(&version_1_flash(), &values(1));
+    assert_eq!(ops, 1 + 5 * 4 + 12 + 4);
+}
+
+#[test]
+fn a_save_that_starts_a_new_page_survives_every_cut() {
+    let mut p = blank();
+    fill_page(&mut p, &values(1));
+    let ops = sweep(&p, &values(1));
+    assert_eq!(ops, 1 + 4 * 4 + 12 + 4);
+    // Going round the ring: the page it erases held an older image.
+    for n in 0..2 * PAGES {
+        fill_page(&mut p, &values(n));
+        sweep(&p, &values(n));
+        save(&mut p, &values(n));
+    }
+}
+
+#[test]
+fn a_log_entry_with_removals_survives_every_cut() {
+    let mut p = blank();
+    save(&mut p, &values(1));
+    // 1017h and 6401h.01 back at their defaults: two removals, one changed record.
+    let ops = sweep(&p, &[(0x1017, 0, 0), (0x6002, 0, 7000), (0x5F0A, 1, 1 + 1 % 127), (0x6401, 1, 0)]);
+    assert_eq!(ops, 3 * 4 + 4);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 
@@ -273,5 +361,25 @@ proptest! {
         }
         let old = p.clone().load();
         cut_and_check(&p, &old, &as_values(new), k, torn);
+    }
+
+    /// Long random histories of saves of any group, values often back at their defaults:
+    /// after each, a power-on (the ring read afresh) finds exactly the merged image.
+    #[test]
+    fn what_a_power_on_finds_is_what_was_saved(
+        history in proptest::collection::vec(
+            (0usize..4, prop_oneof![Just(0u16), any::<u16>()], prop_oneof![Just(10239u32), any::<u32>()], 1u8..=127),
+            1..120,
+        ),
+    ) {
+        let mut p = blank();
+        let mut expected = Image::new();
+        for (sub, heartbeat, resolution, id) in history {
+            let mask = GroupMask::from_subindex(sub as u8 + 1).unwrap();
+            let node = node(&[(0x1017, 0, heartbeat as u32), (0x6002, 0, resolution), (0x5F0A, 1, id as u32)]);
+            p.save(node.core(), mask).unwrap();
+            merge(&mut expected, &node.core().od, 1, mask).unwrap();
+            prop_assert_eq!(params(p.flash().clone()).load(), Loaded::Image(expected.clone()));
+        }
     }
 }
