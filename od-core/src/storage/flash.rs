@@ -26,7 +26,7 @@
 use embedded_storage::nor_flash::NorFlash;
 
 use super::image::{self, Image, Record, Slot, COMMIT, COMMIT_SIZE, HEADER_SIZE, RECORD_SIZE, UNIT};
-use super::{merge_into, Loaded, Parameters};
+use super::{merge_into, Loaded, Parameters, Storable};
 use crate::od::GroupMask;
 
 /// Where the parameter pages are: `pages` erase pages from byte `offset` of the flash the
@@ -87,13 +87,15 @@ pub struct ParamFlash<F> {
     region: Region,
     identity: u32,
     known: Known,
+    /// The storable entries of the dictionary saved last.
+    storable: Option<Storable>,
 }
 
 impl<F: NorFlash> ParamFlash<F> {
     /// The pages in `region` of `flash`, holding images of the device `identity`
     /// ([`super::identity`] of its dictionary).
     pub fn new(flash: F, region: Region, identity: u32) -> ParamFlash<F> {
-        ParamFlash { flash, region, identity, known: Known::Unread }
+        ParamFlash { flash, region, identity, known: Known::Unread, storable: None }
     }
 
     /// The flash. What is written through it behind the [`ParamFlash`]'s back is seen at the
@@ -245,8 +247,13 @@ impl<F: NorFlash> ParamFlash<F> {
             Known::Newest(n) => &n.image,
             _ => &EMPTY,
         };
+        let od = params.od();
+        let storable = match &mut self.storable {
+            Some(s) if core::ptr::eq(s.table, od.table()) => s,
+            other => other.insert(Storable::of(od.table())),
+        };
         let count =
-            merge_into(old, &mut image, params.od(), params.node_id(), mask).map_err(|_| SaveError::TooLarge)?;
+            merge_into(old, &mut image, od, storable, params.node_id(), mask).map_err(|_| SaveError::TooLarge)?;
         let result = match &mut self.known {
             Known::Newest(_) if count == 0 => return Ok(()),
             Known::Newest(n) => match n.end.filter(|&end| end as usize + (count + 1) * UNIT <= F::ERASE_SIZE) {

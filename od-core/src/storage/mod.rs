@@ -309,7 +309,7 @@ pub trait Parameters {
 /// dictionary no longer declares, or can no longer take, are dropped.
 pub fn merge(image: &mut Image, od: &Od, node_id: u8, mask: GroupMask) -> Result<(), image::Full> {
     let mut merged = Image::new();
-    merge_into(image, &mut merged, od, node_id, mask)?;
+    merge_into(image, &mut merged, od, &Storable::of(od.table()), node_id, mask)?;
     *image = merged;
     Ok(())
 }
@@ -319,25 +319,55 @@ fn key(index: u16, sub: u8) -> u32 {
     (index as u32) << 8 | sub as u32
 }
 
-/// [`merge`] of `old` into the empty `new`: one pass over the dictionary and the old records
-/// side by side (both sorted by index and sub-index). Returns how many keys changed (records
-/// added, changed or dropped): the records a log entry of this save holds.
+/// The table positions of the entries a store may write (a storage group, or a pending
+/// node-ID or bit rate), as a bit set: what [`merge_into`] walks instead of the whole table.
+#[derive(Clone, Debug)]
+pub(crate) struct Storable {
+    /// The table it was made for.
+    pub(crate) table: &'static [Entry],
+    bits: [u32; crate::od::MAX_ENTRIES.div_ceil(32)],
+}
+
+impl Storable {
+    /// The storable entries of `table` (at most [`crate::od::MAX_ENTRIES`], as `Od::new`
+    /// checks).
+    pub(crate) fn of(table: &'static [Entry]) -> Storable {
+        let mut bits = [0u32; crate::od::MAX_ENTRIES.div_ceil(32)];
+        for (pos, e) in table.iter().enumerate().take(crate::od::MAX_ENTRIES) {
+            if is_stored(e) || is_pending(e) {
+                bits[pos / 32] |= 1 << (pos % 32);
+            }
+        }
+        Storable { table, bits }
+    }
+}
+
+/// [`merge`] of `old` into the empty `new`: one pass over the storable entries and the old
+/// records side by side (both sorted by index and sub-index). Returns how many keys changed
+/// (records added, changed or dropped): the records a log entry of this save holds.
 pub(crate) fn merge_into(
     old: &Image,
     new: &mut Image,
     od: &Od,
+    storable: &Storable,
     node_id: u8,
     mask: GroupMask,
 ) -> Result<usize, image::Full> {
     let olds = old.records();
     let groups = mask.0 & USER_GROUPS;
     let by_hook = mask.0 & BY_HOOK != 0;
+    let table = od.table();
     let (mut i, mut changed) = (0, 0);
-    for (pos, e) in od.table().iter().enumerate() {
-        if e.group == Group::None && !by_hook {
-            // Not a stored entry (the common case): a record of it is passed over below.
-            continue;
-        }
+    let positions = storable.bits.iter().enumerate().flat_map(|(w, &bits)| {
+        let mut bits = bits;
+        core::iter::from_fn(move || {
+            let bit = bits.trailing_zeros() as usize;
+            bits &= bits.wrapping_sub(1);
+            (bit < 32).then_some(w * 32 + bit)
+        })
+    });
+    for pos in positions {
+        let Some(e) = table.get(pos) else { break };
         let k = key(e.index, e.sub);
         // Records of keys the dictionary does not declare, or does not store, are passed
         // over: dropped.
