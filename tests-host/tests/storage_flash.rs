@@ -337,7 +337,7 @@ fn a_log_entry_with_removals_survives_every_cut() {
     let mut p = blank();
     save(&mut p, &values(1));
     // 1017h and 6401h.01 back at their defaults: two removals, one changed record.
-    let ops = sweep(&p, &[(0x1017, 0, 0), (0x6002, 0, 7000), (0x5F0A, 1, 1 + 1 % 127), (0x6401, 1, 0)]);
+    let ops = sweep(&p, &[(0x1017, 0, 0), (0x6002, 0, 7000), (0x5F0A, 1, 2), (0x6401, 1, -20478i32 as u32)]);
     assert_eq!(ops, 3 * 4 + 4);
 }
 

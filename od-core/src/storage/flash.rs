@@ -70,6 +70,8 @@ struct Newest {
 }
 
 /// What the [`ParamFlash`] knows of its pages.
+// Not boxed: no allocation. The image is the point of keeping it.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 enum Known {
     /// Nothing yet, or a save failed: read the ring before the next save.
