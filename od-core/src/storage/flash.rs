@@ -241,13 +241,12 @@ impl<F: NorFlash> ParamFlash<F> {
     /// groups in `mask` (see [`super::merge`]) becomes the newest image. Only what changed is
     /// written, into the newest page's log while it has room.
     pub fn save(&mut self, params: &impl Parameters, mask: GroupMask) -> Result<(), SaveError<F::Error>> {
-        static EMPTY: Image = Image::new();
         self.check_region()?;
         self.know();
         let mut image = Image::new();
         let old = match &self.known {
-            Known::Newest(n) => &n.image,
-            _ => &EMPTY,
+            Known::Newest(n) => n.image.records(),
+            _ => &[],
         };
         let od = params.od();
         let storable = match &mut self.storable {

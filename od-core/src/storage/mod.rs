@@ -309,7 +309,7 @@ pub trait Parameters {
 /// dictionary no longer declares, or can no longer take, are dropped.
 pub fn merge(image: &mut Image, od: &Od, node_id: u8, mask: GroupMask) -> Result<(), image::Full> {
     let mut merged = Image::new();
-    merge_into(image, &mut merged, od, &Storable::of(od.table()), node_id, mask)?;
+    merge_into(image.records(), &mut merged, od, &Storable::of(od.table()), node_id, mask)?;
     *image = merged;
     Ok(())
 }
@@ -342,18 +342,17 @@ impl Storable {
     }
 }
 
-/// [`merge`] of `old` into the empty `new`: one pass over the storable entries and the old
-/// records side by side (both sorted by index and sub-index). Returns how many keys changed
+/// [`merge`] of the records `olds` into the empty `new`: one pass over the storable entries
+/// and the old records side by side (both sorted by index and sub-index). Returns how many keys changed
 /// (records added, changed or dropped): the records a log entry of this save holds.
 pub(crate) fn merge_into(
-    old: &Image,
+    olds: &[Record],
     new: &mut Image,
     od: &Od,
     storable: &Storable,
     node_id: u8,
     mask: GroupMask,
 ) -> Result<usize, image::Full> {
-    let olds = old.records();
     let groups = mask.0 & USER_GROUPS;
     let by_hook = mask.0 & BY_HOOK != 0;
     let table = od.table();
