@@ -185,6 +185,19 @@ fn an_interrupted_save_is_retried_on_the_next_page() {
 }
 
 #[test]
+fn a_page_not_erased_after_its_log_is_not_written_again() {
+    let mut p = blank();
+    let first = save(&mut blank(), &values(1));
+    save(&mut p, &values(1));
+    // Something programmed far behind the end of the log (not by us): the log still ends at
+    // the first erased unit, but the next save goes to a new page instead of failing there.
+    p.flash().bytes_mut()[2 * PAGE - 2] = 0x12;
+    assert_eq!(p.load(), Loaded::Image(first));
+    assert_eq!(save(&mut p, &values(2)), save(&mut blank(), &values(2)));
+    assert_eq!(p.flash().erase_count(2), 1);
+}
+
+#[test]
 fn a_worn_flash_fails_the_save_and_keeps_the_old_image() {
     let mut p = blank();
     let old = save(&mut p, &values(1));

@@ -163,6 +163,15 @@ impl<F: NorFlash> ParamFlash<F> {
         while at + UNIT as u32 <= size {
             let unit = self.read_unit(base + at)?;
             if unit == [0xFF; UNIT] {
+                // The log ends here if the rest of the page is erased: only then can the next
+                // entry be written (a corrupt page is not written again).
+                let mut rest = at + UNIT as u32;
+                while rest + UNIT as u32 <= size {
+                    if self.read_unit(base + rest)? != [0xFF; UNIT] {
+                        return None;
+                    }
+                    rest += UNIT as u32;
+                }
                 break;
             }
             if !image::is_log_commit(&unit) {

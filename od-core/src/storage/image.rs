@@ -28,7 +28,7 @@
 //! The image a page holds is its records with every committed entry applied in order; the log
 //! ends at the first unit that reads erased (FFh), at the page's end, or at the first entry that
 //! does not check (a save a power cut interrupted: nothing after it counts, and the next save
-//! starts a new page). Version 1 (the format before the log) is the same page without a log.
+//! starts a new page, as it does when anything after the first erased unit is not erased). Version 1 (the format before the log) is the same page without a log.
 //!
 //! All numbers little-endian. A record names its entry instead of a position in the table, so a
 //! firmware that adds or removes entries still loads every record that matches one of its
