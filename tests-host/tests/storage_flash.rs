@@ -198,6 +198,40 @@ fn a_page_not_erased_after_its_log_is_not_written_again() {
 }
 
 #[test]
+fn an_entry_that_cannot_be_applied_whole_is_no_image_rather_than_half_of_one() {
+    use od_core::storage::image::{log_commit, log_crc, MAX_RECORDS};
+    let mut p = blank();
+    let mut full = Image::new();
+    for i in 0..MAX_RECORDS as u16 {
+        full.set(Record { index: 0x2000 + i, sub: 0, size: 4, value: i as u32 }).unwrap();
+    }
+    p.write(&full).unwrap();
+    // An entry (not one of ours) that checks: a 97th record, then the removal of the first.
+    let at = PAGE + 32 + 8 * MAX_RECORDS;
+    let (add, remove) = (Record { index: 0x3000, sub: 0, size: 4, value: 1 }, Record::removal(0x2000, 0));
+    let mut crc = log_crc(1);
+    crc.update(&add.encode());
+    crc.update(&remove.encode());
+    let bytes = p.flash().bytes_mut();
+    bytes[at..at + 8].copy_from_slice(&add.encode());
+    bytes[at + 8..at + 16].copy_from_slice(&remove.encode());
+    bytes[at + 16..at + 24].copy_from_slice(&log_commit(2, crc));
+    // Removals are applied first, so it fits.
+    let Loaded::Image(i) = p.load() else { panic!("no image") };
+    assert_eq!((i.len(), i.get(0x3000, 0).is_some(), i.get(0x2000, 0).is_none()), (MAX_RECORDS, true, true));
+    // Without the removal it cannot.
+    let mut crc = log_crc(1);
+    crc.update(&add.encode());
+    let bytes = p.flash().bytes_mut();
+    bytes[at + 8..at + 24].fill(0xFF);
+    bytes[at + 8..at + 16].copy_from_slice(&log_commit(1, crc));
+    assert_eq!(p.load(), Loaded::Invalid);
+    // A save goes after that page, so that it is the newest.
+    assert_eq!(save(&mut p, &values(1)), save(&mut blank(), &values(1)));
+    assert_eq!(p.flash().erase_count(2), 1);
+}
+
+#[test]
 fn a_worn_flash_fails_the_save_and_keeps_the_old_image() {
     let mut p = blank();
     let old = save(&mut p, &values(1));

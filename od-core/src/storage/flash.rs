@@ -76,8 +76,9 @@ struct Newest {
 enum Known {
     /// Nothing yet, or a save failed: read the ring before the next save.
     Unread,
-    /// No valid image (blank, or nothing of ours).
-    Nothing,
+    /// No valid image (blank, or nothing of ours). With the page holding the highest
+    /// sequence number, if one checks but its log cannot be applied: the next page goes after it.
+    Nothing(Option<(u32, u32)>),
     /// The newest valid page.
     Newest(Newest),
 }
@@ -123,8 +124,9 @@ impl<F: NorFlash> ParamFlash<F> {
     }
 
     /// Reads the ring: the newest valid page with its log applied; else whether no page was
-    /// ever committed (blank: erased, or a first save cut short).
-    fn read_ring(&mut self) -> Result<Newest, bool> {
+    /// ever committed (blank: erased, or a first save cut short), and the newest page whose
+    /// header checks, if any.
+    fn read_ring(&mut self) -> Result<Newest, (bool, Option<(u32, u32)>)> {
         let mut best: Option<(u32, Slot)> = None;
         let mut blank = true;
         for n in 0..self.region.pages {
@@ -139,10 +141,17 @@ impl<F: NorFlash> ParamFlash<F> {
                 Err(_) => blank = false,
             }
         }
-        let (page, slot) = best.ok_or(blank)?;
+        let (page, slot) = best.ok_or((blank, None))?;
+        let unusable = (false, Some((page, slot.sequence)));
         let mut image = Image::new();
-        self.decode(page, Some(&mut image)).map_err(|_| false)?;
-        let end = if slot.version == image::VERSION { self.replay(page, &slot, &mut image) } else { None };
+        self.decode(page, Some(&mut image)).map_err(|_| unusable)?;
+        let end = if slot.version == image::VERSION {
+            // An entry that checks but cannot be applied whole (unreadable, or more records
+            // than an image holds): no image rather than half of one.
+            self.replay(page, &slot, &mut image).map_err(|()| unusable)?
+        } else {
+            None
+        };
         Ok(Newest { page, sequence: slot.sequence, end, image })
     }
 
@@ -153,22 +162,23 @@ impl<F: NorFlash> ParamFlash<F> {
 
     /// Applies the committed entries of page `page`'s log to `image`; returns where the next
     /// entry goes, or `None` if the log ends in something that is not a whole entry (a save
-    /// a power cut interrupted: the page takes no more).
-    fn replay(&mut self, page: u32, slot: &Slot, image: &mut Image) -> Option<u32> {
+    /// a power cut interrupted: the page takes no more). `Err` if an entry that checks could
+    /// not be applied whole.
+    fn replay(&mut self, page: u32, slot: &Slot, image: &mut Image) -> Result<Option<u32>, ()> {
         let base = self.page(page);
         let size = F::ERASE_SIZE as u32;
         let mut at = image::slot_size(slot.records) as u32;
         let mut start = at;
         let mut crc = image::log_crc(slot.sequence);
         while at + UNIT as u32 <= size {
-            let unit = self.read_unit(base + at)?;
+            let Some(unit) = self.read_unit(base + at) else { return Ok(None) };
             if unit == [0xFF; UNIT] {
                 // The log ends here if the rest of the page is erased: only then can the next
                 // entry be written (a corrupt page is not written again).
                 let mut rest = at + UNIT as u32;
                 while rest + UNIT as u32 <= size {
-                    if self.read_unit(base + rest)? != [0xFF; UNIT] {
-                        return None;
+                    if self.read_unit(base + rest) != Some([0xFF; UNIT]) {
+                        return Ok(None);
                     }
                     rest += UNIT as u32;
                 }
@@ -183,19 +193,19 @@ impl<F: NorFlash> ParamFlash<F> {
             let sum = u32::from_le_bytes([unit[4], unit[5], unit[6], unit[7]]);
             crc.update(&unit[..4]);
             if count == 0 || count * UNIT as u32 != at - start || crc.finish() != sum {
-                return None;
+                return Ok(None);
             }
             // Removals first: the image never holds more records than before or after.
             for removals in [true, false] {
                 for k in 0..count {
-                    let r = Record::decode(&self.read_unit(base + start + k * UNIT as u32)?);
+                    let r = Record::decode(&self.read_unit(base + start + k * UNIT as u32).ok_or(())?);
                     if r.is_removal() != removals {
                         continue;
                     }
                     if removals {
                         image.remove(r.index, r.sub);
-                    } else if image.set(r).is_err() {
-                        return None;
+                    } else {
+                        image.set(r).map_err(|_| ())?;
                     }
                 }
             }
@@ -204,7 +214,7 @@ impl<F: NorFlash> ParamFlash<F> {
             crc = image::log_crc(slot.sequence);
         }
         // Records with no commit after them: an entry a power cut interrupted.
-        (start == at).then_some(at)
+        Ok((start == at).then_some(at))
     }
 
     /// Reads what the pages hold: the newest valid image; else blank if no page was ever
@@ -217,8 +227,8 @@ impl<F: NorFlash> ParamFlash<F> {
                 self.known = Known::Newest(newest);
                 Loaded::Image(image)
             }
-            Err(blank) => {
-                self.known = Known::Nothing;
+            Err((blank, newest)) => {
+                self.known = Known::Nothing(newest);
                 if blank {
                     Loaded::Blank
                 } else {
@@ -242,7 +252,7 @@ impl<F: NorFlash> ParamFlash<F> {
     /// Reads the ring unless what it holds is known.
     fn know(&mut self) {
         if matches!(self.known, Known::Unread) {
-            self.known = self.read_ring().map_or(Known::Nothing, Known::Newest);
+            self.known = self.read_ring().map_or_else(|(_, newest)| Known::Nothing(newest), Known::Newest);
         }
     }
 
@@ -276,7 +286,11 @@ impl<F: NorFlash> ParamFlash<F> {
                     self.start_page(image, previous)
                 }
             },
-            _ => self.start_page(image, None),
+            Known::Nothing(previous) => {
+                let previous = *previous;
+                self.start_page(image, previous)
+            }
+            Known::Unread => self.start_page(image, None),
         };
         if result.is_err() {
             self.known = Known::Unread;
@@ -291,7 +305,8 @@ impl<F: NorFlash> ParamFlash<F> {
         self.know();
         let previous = match &self.known {
             Known::Newest(n) => Some((n.page, n.sequence)),
-            _ => None,
+            Known::Nothing(previous) => *previous,
+            Known::Unread => None,
         };
         let result = self.start_page(image.clone(), previous);
         if result.is_err() {
