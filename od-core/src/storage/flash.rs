@@ -26,7 +26,7 @@
 use embedded_storage::nor_flash::NorFlash;
 
 use super::image::{self, Image, Record, Slot, COMMIT, COMMIT_SIZE, HEADER_SIZE, RECORD_SIZE, UNIT};
-use super::{merge_into, Loaded, Parameters, Storable};
+use super::{merge_into, Loaded, Log, Parameters, Storable};
 use crate::od::GroupMask;
 
 /// Where the parameter pages are: `pages` erase pages from byte `offset` of the flash the
@@ -262,7 +262,7 @@ impl<F: NorFlash> ParamFlash<F> {
     pub fn save(&mut self, params: &impl Parameters, mask: GroupMask) -> Result<(), SaveError<F::Error>> {
         self.check_region()?;
         self.know();
-        let mut image = Image::new();
+        let (mut image, mut log) = (Image::new(), Log::new());
         let old = match &self.known {
             Known::Newest(n) => n.image.records(),
             _ => &[],
@@ -272,14 +272,14 @@ impl<F: NorFlash> ParamFlash<F> {
             Some(s) if core::ptr::eq(s.table, od.table()) => s,
             other => other.insert(Storable::of(od.table())),
         };
-        let count =
-            merge_into(old, &mut image, od, storable, params.node_id(), mask).map_err(|_| SaveError::TooLarge)?;
+        let count = merge_into(old, &mut image, &mut log, od, storable, params.node_id(), mask)
+            .map_err(|_| SaveError::TooLarge)?;
         let result = match &mut self.known {
             Known::Newest(_) if count == 0 => return Ok(()),
             Known::Newest(n) => match n.end.filter(|&end| end as usize + (count + 1) * UNIT <= F::ERASE_SIZE) {
-                Some(end) if count <= u8::MAX as usize => {
+                Some(end) if count == log.len() => {
                     let base = self.region.offset + n.page * F::ERASE_SIZE as u32;
-                    append(&mut self.flash, base, n, end, &image, count as u8)
+                    append(&mut self.flash, base, n, end, &image, &log)
                 }
                 _ => {
                     let previous = Some((n.page, n.sequence));
@@ -329,28 +329,20 @@ impl<F: NorFlash> ParamFlash<F> {
         let base = self.page(n);
         let header = image.header(self.identity, sequence);
         self.flash.erase(base, base + page_size).map_err(SaveError::Flash)?;
+        // Each unit read back as it is written: a page that does not hold what was written
+        // never gets its commit marker.
         for (i, r) in image.records().iter().enumerate() {
-            self.flash.write(base + (HEADER_SIZE + i * RECORD_SIZE) as u32, &r.encode()).map_err(SaveError::Flash)?;
+            program(&mut self.flash, base + (HEADER_SIZE + i * RECORD_SIZE) as u32, &r.encode())?;
         }
-        self.flash.write(base + COMMIT_SIZE as u32, &header).map_err(SaveError::Flash)?;
-        // Read back before committing: a page that does not hold what was written never counts.
-        let mut head = [0u8; HEADER_SIZE - COMMIT_SIZE];
-        self.flash.read(base + COMMIT_SIZE as u32, &mut head).map_err(SaveError::Flash)?;
-        if head != header {
-            return Err(SaveError::Verify);
+        for (i, unit) in header.chunks_exact(UNIT).enumerate() {
+            let unit: &[u8; UNIT] = unit.try_into().map_err(|_| SaveError::Verify)?;
+            program(&mut self.flash, base + (COMMIT_SIZE + i * UNIT) as u32, unit)?;
         }
-        for (i, r) in image.records().iter().enumerate() {
-            let mut b = [0u8; RECORD_SIZE];
-            self.flash.read(base + (HEADER_SIZE + i * RECORD_SIZE) as u32, &mut b).map_err(SaveError::Flash)?;
-            if b != r.encode() {
-                return Err(SaveError::Verify);
-            }
-        }
-        self.flash.write(base, &COMMIT).map_err(SaveError::Flash)?;
-        if self.decode(n, None).map(|s| s.sequence) != Ok(sequence) {
+        // The marker last, read back too: every byte of the page then is what was written.
+        if let Err(e) = program(&mut self.flash, base, &COMMIT) {
             // Make sure the page never counts: programming zeros is always possible.
             let _ = self.flash.write(base, &[0; COMMIT_SIZE]);
-            return Err(SaveError::Verify);
+            return Err(e);
         }
         let end = image::slot_size(image.len()) as u32;
         self.known = Known::Newest(Newest { page: n, sequence, end: Some(end), image });
@@ -369,7 +361,7 @@ fn program<F: NorFlash>(flash: &mut F, at: u32, unit: &[u8; UNIT]) -> Result<(),
     Ok(())
 }
 
-/// Appends the `count` records that turn `n`'s image (on the page at `base`) into `image` to
+/// Appends `log`, the records that turn `n`'s image (on the page at `base`) into `image`, to
 /// its log at `end`, then the entry's commit unit; `n` then holds `image`.
 fn append<F: NorFlash>(
     flash: &mut F,
@@ -377,18 +369,18 @@ fn append<F: NorFlash>(
     n: &mut Newest,
     end: u32,
     image: &Image,
-    count: u8,
+    log: &Log,
 ) -> Result<(), SaveError<F::Error>> {
     let mut at = base + end;
     let mut crc = image::log_crc(n.sequence);
-    for r in changes(&n.image, image) {
+    for r in log {
         let unit = r.encode();
         program(flash, at, &unit)?;
         crc.update(&unit);
         at += UNIT as u32;
     }
-    debug_assert_eq!(at - base - end, count as u32 * UNIT as u32, "the merge counted every change");
-    let commit = image::log_commit(count, crc);
+    // LOG_MAX records: the count fits its byte.
+    let commit = image::log_commit(log.len() as u8, crc);
     if let Err(e) = program(flash, at, &commit) {
         // Make sure the entry never counts: programming zeros is always possible.
         let _ = flash.write(at, &[0; UNIT]);
@@ -397,35 +389,4 @@ fn append<F: NorFlash>(
     n.end = Some(at + UNIT as u32 - base);
     n.image.assign(image);
     Ok(())
-}
-
-/// The log records that turn `old` into `new`: each record of `new` that `old` does not hold
-/// as it is, and a removal for each key of `old` that `new` lacks; in key order.
-fn changes<'a>(old: &'a Image, new: &'a Image) -> impl Iterator<Item = Record> + 'a {
-    let (old, new) = (old.records(), new.records());
-    let (mut i, mut j) = (0, 0);
-    core::iter::from_fn(move || loop {
-        match (old.get(i), new.get(j)) {
-            (Some(a), Some(b)) if a.key() == b.key() => {
-                i += 1;
-                j += 1;
-                if a != b {
-                    return Some(*b);
-                }
-            }
-            (Some(a), Some(b)) if a.key() < b.key() => {
-                i += 1;
-                return Some(Record::removal(a.index, a.sub));
-            }
-            (Some(a), None) => {
-                i += 1;
-                return Some(Record::removal(a.index, a.sub));
-            }
-            (_, Some(b)) => {
-                j += 1;
-                return Some(*b);
-            }
-            (None, None) => return None,
-        }
-    })
 }

@@ -309,7 +309,7 @@ pub trait Parameters {
 /// dictionary no longer declares, or can no longer take, are dropped.
 pub fn merge(image: &mut Image, od: &Od, node_id: u8, mask: GroupMask) -> Result<(), image::Full> {
     let mut merged = Image::new();
-    merge_into(image.records(), &mut merged, od, &Storable::of(od.table()), node_id, mask)?;
+    merge_into(image.records(), &mut merged, &mut Log::new(), od, &Storable::of(od.table()), node_id, mask)?;
     *image = merged;
     Ok(())
 }
@@ -318,6 +318,11 @@ pub fn merge(image: &mut Image, od: &Od, node_id: u8, mask: GroupMask) -> Result
 fn key(index: u16, sub: u8) -> u32 {
     (index as u32) << 8 | sub as u32
 }
+
+/// Most records one log entry holds: a save that changes more starts a new page.
+pub(crate) const LOG_MAX: usize = 32;
+/// The records of one log entry.
+pub(crate) type Log = heapless::Vec<Record, LOG_MAX>;
 
 /// The table positions of the entries a store may write (a storage group, or a pending
 /// node-ID or bit rate), as a bit set: what [`merge_into`] walks instead of the whole table.
@@ -344,10 +349,12 @@ impl Storable {
 
 /// [`merge`] of the records `olds` into the empty `new`: one pass over the storable entries
 /// and the old records side by side (both sorted by index and sub-index). Returns how many keys changed
-/// (records added, changed or dropped): the records a log entry of this save holds.
+/// (records added, changed or dropped): the records a log entry of this save holds, which go
+/// to `log` as far as it has room (a removal for a record dropped).
 pub(crate) fn merge_into(
     olds: &[Record],
     new: &mut Image,
+    log: &mut Log,
     od: &Od,
     storable: &Storable,
     node_id: u8,
@@ -357,43 +364,45 @@ pub(crate) fn merge_into(
     let by_hook = mask.0 & BY_HOOK != 0;
     let table = od.table();
     let (mut i, mut changed) = (0, 0);
-    let positions = storable.bits.iter().enumerate().flat_map(|(w, &bits)| {
-        let mut bits = bits;
-        core::iter::from_fn(move || {
-            let bit = bits.trailing_zeros() as usize;
-            bits &= bits.wrapping_sub(1);
-            (bit < 32).then_some(w * 32 + bit)
-        })
-    });
-    for pos in positions {
-        let Some(e) = table.get(pos) else { break };
-        let k = key(e.index, e.sub);
-        // Records of keys the dictionary does not declare, or does not store, are passed
-        // over: dropped.
-        while olds.get(i).is_some_and(|r| key(r.index, r.sub) < k) {
-            i += 1;
-            changed += 1;
-        }
-        let stored = olds.get(i).filter(|r| key(r.index, r.sub) == k);
-        i += usize::from(stored.is_some());
-        let bit = e.group.bit();
-        let take = bit & groups != 0
-            || (by_hook && selected(e, mask))
-            || (e.group == Group::Factory && !stored.is_some_and(|r| r.fits(e)));
-        let record = if take {
-            let value = od.get(pos);
-            (value != e.default_value(node_id)).then(|| Record::of(e, value))
-        } else {
-            stored.filter(|r| r.fits(e)).copied()
-        };
-        if record.as_ref() != stored {
-            changed += 1;
-        }
-        if let Some(r) = record {
-            if !new.push_sorted(r) {
-                return Err(image::Full);
+    for (w, &word) in storable.bits.iter().enumerate() {
+        let mut bits = word;
+        while bits != 0 {
+            let pos = w * 32 + bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let Some(e) = table.get(pos) else { continue };
+            let k = key(e.index, e.sub);
+            // Records of keys the dictionary does not declare, or does not store, are passed
+            // over: dropped.
+            while let Some(r) = olds.get(i).filter(|r| key(r.index, r.sub) < k) {
+                let _ = log.push(Record::removal(r.index, r.sub));
+                i += 1;
+                changed += 1;
+            }
+            let stored = olds.get(i).filter(|r| key(r.index, r.sub) == k);
+            i += usize::from(stored.is_some());
+            let bit = e.group.bit();
+            let take = bit & groups != 0
+                || (by_hook && selected(e, mask))
+                || (e.group == Group::Factory && !stored.is_some_and(|r| r.fits(e)));
+            let record = if take {
+                let value = od.get(pos);
+                (value != e.default_value(node_id)).then(|| Record::of(e, value))
+            } else {
+                stored.filter(|r| r.fits(e)).copied()
+            };
+            if record.as_ref() != stored {
+                let _ = log.push(record.unwrap_or(Record::removal(e.index, e.sub)));
+                changed += 1;
+            }
+            if let Some(r) = record {
+                if !new.push_sorted(r) {
+                    return Err(image::Full);
+                }
             }
         }
+    }
+    for r in &olds[i..] {
+        let _ = log.push(Record::removal(r.index, r.sub));
     }
     Ok(changed + olds.len() - i)
 }
