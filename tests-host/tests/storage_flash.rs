@@ -232,6 +232,29 @@ fn an_entry_that_cannot_be_applied_whole_is_no_image_rather_than_half_of_one() {
 }
 
 #[test]
+fn a_save_that_changes_more_than_an_entry_holds_starts_a_new_page() {
+    // 40 records of entries the dictionary does not declare: the next save drops them all,
+    // more records than one log entry holds (32).
+    let mut p = blank();
+    let mut foreign = Image::new();
+    for i in 0..40 {
+        foreign.set(Record { index: 0x2100 + i, sub: 0, size: 4, value: 1 }).unwrap();
+    }
+    p.write(&foreign).unwrap();
+    assert_eq!(save(&mut p, &values(1)), save(&mut blank(), &values(1)));
+    assert_eq!((p.flash().erase_count(1), p.flash().erase_count(2)), (1, 1));
+    // 20 (and the four values): one entry on the same page.
+    let mut p = blank();
+    let mut few = Image::new();
+    for r in &foreign.records()[..20] {
+        few.set(*r).unwrap();
+    }
+    p.write(&few).unwrap();
+    assert_eq!(save(&mut p, &values(1)), save(&mut blank(), &values(1)));
+    assert_eq!(p.flash().erase_count(2), 0);
+}
+
+#[test]
 fn a_worn_flash_fails_the_save_and_keeps_the_old_image() {
     let mut p = blank();
     let old = save(&mut p, &values(1));
