@@ -1,8 +1,8 @@
 //! The parameter pages: the region `memory.x` reserves at the end of the flash, holding the
 //! core's power-fail-safe parameter images (`od_core::storage::ParamFlash`), written through
-//! embassy-stm32's blocking flash driver. A save blocks the loop for the page erase and the
-//! writes (the F103 cannot read its flash while erasing it), and the node answers the store
-//! once it is done.
+//! embassy-stm32's blocking flash driver. A save blocks the loop for its writes (and, when the
+//! newest page is full, the erase of the next one: the F103 cannot read its flash while
+//! erasing it), and the node answers the store once it is done.
 
 use embassy_stm32::flash::{Blocking, Flash};
 use embedded_storage::nor_flash::NorFlash;

@@ -10,10 +10,11 @@
 
 use od_core::node::{BusEvent, Output};
 use od_core::od::{Group, GroupMask};
+use od_core::storage::crc::Crc32;
 use od_core::storage::{identity, Loaded, ParamFlash};
 use od_core::{Frame, Instant};
 use tests_host::encoder::download_request;
-use tests_host::flash::{FlashError, RamFlash};
+use tests_host::flash::{FlashError, RamFlash, PAGE};
 use tests_host::invariants::{Kind, Subject, ENCODERS, REGION};
 
 /// How a cut leaves the operation it interrupts.
@@ -221,5 +222,66 @@ fn every_store_path_survives_a_cut_at_every_operation() {
     for (name, total, corrupt) in &report {
         eprintln!("{name}: {total} cut points ({corrupt} read as corrupt, reported by EMCY 6300h)");
         assert!(*total > 1000, "{name}: only {total} cut points");
+    }
+}
+
+/// Page erases so far.
+fn erases(flash: &RamFlash) -> u32 {
+    (0..flash.bytes().len() / PAGE).map(|p| flash.erase_count(p)).sum()
+}
+
+/// Rewrites the image that starts page `page` (a page with no log) as the format before the
+/// log wrote it: version 1, its CRC recomputed.
+fn as_version_1(flash: &mut RamFlash, page: usize) {
+    let b = &mut flash.bytes_mut()[page * PAGE..(page + 1) * PAGE];
+    b[12..14].copy_from_slice(&1u16.to_le_bytes());
+    let records = u16::from_le_bytes([b[14], b[15]]) as usize;
+    let mut crc = Crc32::new();
+    crc.update(&b[8..28]);
+    crc.update(&b[32..32 + 8 * records]);
+    b[28..32].copy_from_slice(&crc.finish().to_le_bytes());
+}
+
+/// The paths a save takes since the log: the save that starts the next page because the
+/// newest one is full, and the first save after a page of the format before the log (which
+/// takes no log). The same sweep as above, from those two starting points.
+#[test]
+fn every_store_path_survives_a_cut_where_a_page_is_full_or_of_the_old_format() {
+    let mut report = Vec::new();
+    for path in PATHS {
+        let mut total = 0;
+        for &kind in ENCODERS {
+            let blank = ParamFlash::new(RamFlash::new(REGION.pages as usize), REGION, identity(kind.table()));
+            // Saves until the next one of this path would start a new page.
+            let mut flash = blank.clone();
+            for n in 0.. {
+                let mut probe = flash.clone();
+                let (node, mask) = prepare(kind, &mut probe.clone(), path, n);
+                let before = erases(probe.flash());
+                probe.save(node.core(), mask).unwrap();
+                if n > 0 && erases(probe.flash()) > before {
+                    total += sweep(kind, &flash, path, n);
+                    break;
+                }
+                assert!(n < 200, "{kind:?} {}: no page filled", path.name());
+                let (node, mask) = prepare(kind, &mut flash.clone(), Path::Save(1), n + 7);
+                flash.save(node.core(), mask).unwrap();
+            }
+            // A version-1 page, as a board in the field holds it.
+            let mut flash = blank.clone();
+            let (node, mask) = prepare(kind, &mut flash.clone(), Path::Save(1), 3);
+            flash.save(node.core(), mask).unwrap();
+            let mut old = flash.into_inner();
+            as_version_1(&mut old, 0);
+            let flash = ParamFlash::new(old, REGION, identity(kind.table()));
+            assert!(matches!(flash.clone().load(), Loaded::Image(_)), "{kind:?}: the version-1 page loads");
+            total += sweep(kind, &flash, path, 5);
+        }
+        report.push((path.name(), total, CORRUPT.with(|c| c.replace(0))));
+    }
+    for (name, total, corrupt) in &report {
+        eprintln!("{name}, full page or version 1: {total} cut points ({corrupt} read as corrupt)");
+        assert!(*total > 1000, "{name}: only {total} cut points");
+        assert_eq!(*corrupt, 0, "{name}: the old image is always there");
     }
 }

@@ -87,7 +87,7 @@ fn a_power_cut_in_a_save_leaves_the_node_as_stored() {
     let mut params = ParamFlash::new(flash.clone(), REGION, identity(sgh10::TABLE));
     let mut other = Node::new(TableOnly(sgh10::TABLE), 1, Bitrate::K500);
     other.split().1.od.set_value(0x6002, 0, 6000);
-    params.flash().cut_after(9, Some(0x00F0));
+    params.flash().cut_after(5, Some(0x00F0));
     assert!(params.save(other.core(), od_core::od::GroupMask::ALL).is_err());
     flash = params.into_inner();
     let mut bus = bus_with(flash, Bitrate::K500);

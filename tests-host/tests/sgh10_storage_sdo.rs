@@ -197,7 +197,7 @@ fn store_failure_aborts_and_keeps_the_old_parameters() {
     bus.flash(0).set_worn(true);
     sdo(&mut bus, 1, SAVE_ALL, STORE_FAILED);
     bus.flash(0).set_worn(false);
-    bus.flash(0).cut_after(12, Some(0x0F0F));
+    bus.flash(0).cut_after(5, Some(0x0F0F));
     sdo(&mut bus, 1, SAVE_ALL, STORE_FAILED);
     bus.power_cycle(0);
     bus.expect(0x701, &[0x00]);

@@ -1,18 +1,34 @@
 //! The parameter image: the stored values as records keyed by (index, sub-index), and its
-//! byte layout in one flash slot.
+//! byte layout in one flash page.
 //!
 //! ```text
 //! offset  size  field
-//!      0     8  commit marker (COMMIT), written last: the slot counts only once it is there
+//!      0     8  commit marker (COMMIT), written last: the page counts only once it is there
 //!      8     4  magic "SKPI"
-//!     12     2  format version (VERSION)
+//!     12     2  format version (VERSION; VERSION_1 pages still load)
 //!     14     2  number of records n
 //!     16     4  device identity (`identity`: an image of another device is refused)
-//!     20     4  sequence number (the newest valid slot wins)
+//!     20     4  sequence number (the newest valid page wins)
 //!     24     4  reserved, FFFFFFFFh
 //!     28     4  CRC-32 over bytes 8..28 and the n records
 //!     32    8n  records: index (2), sub-index (1), size in bytes (1), value (4)
+//! 32 + 8n       version 2 only: the log, entries of 8-byte units up to the end of the page
 //! ```
+//!
+//! A log entry is the records one save changed (a record of size 0 removes its key: the entry
+//! went back to its default) followed by its commit unit, written last:
+//!
+//! ```text
+//!      0     2  0000h (no entry has index 0000h)
+//!      2     1  number of records k of the entry (1..=255), the k units before this one
+//!      3     1  LOG_TAG
+//!      4     4  CRC-32 over the page's sequence number (4 bytes), the k records and bytes 0..4
+//! ```
+//!
+//! The image a page holds is its records with every committed entry applied in order; the log
+//! ends at the first unit that reads erased (FFh), at the page's end, or at the first entry that
+//! does not check (a save a power cut interrupted: nothing after it counts, and the next save
+//! starts a new page, as it does when anything after the first erased unit is not erased). Version 1 (the format before the log) is the same page without a log.
 //!
 //! All numbers little-endian. A record names its entry instead of a position in the table, so a
 //! firmware that adds or removes entries still loads every record that matches one of its
@@ -36,8 +52,15 @@ pub const COMMIT_SIZE: usize = 8;
 pub const COMMIT: [u8; COMMIT_SIZE] = *b"\xA5\x5A\xC3\x3CPARM";
 /// "SKPI": SIKO parameter image.
 pub const MAGIC: [u8; 4] = *b"SKPI";
-/// Layout version; an image of another version is not loaded.
-pub const VERSION: u16 = 1;
+/// Layout version written: a page that may carry a log after its records. Firmware that knows
+/// only [`VERSION_1`] refuses it rather than load its records without their log.
+pub const VERSION: u16 = 2;
+/// The layout before the log (the same header and records, nothing after them): still loads.
+pub const VERSION_1: u16 = 1;
+/// Bytes of one log unit (a record or a commit).
+pub const UNIT: usize = 8;
+/// Byte 3 of a log commit unit (never a record's size: those are 0, 1, 2 or 4).
+pub const LOG_TAG: u8 = 0xC3;
 
 /// Bytes a slot needs for an image of `records` records.
 pub const fn slot_size(records: usize) -> usize {
@@ -107,9 +130,51 @@ impl Record {
         }
     }
 
-    fn key(&self) -> (u16, u8) {
+    /// A log record that removes the record of (index, sub): size 0.
+    pub const fn removal(index: u16, sub: u8) -> Record {
+        Record { index, sub, size: 0, value: 0 }
+    }
+
+    /// Is it a log record that removes its key?
+    pub const fn is_removal(&self) -> bool {
+        self.size == 0
+    }
+
+    pub(crate) fn key(&self) -> (u16, u8) {
         (self.index, self.sub)
     }
+}
+
+/// Is this log unit a commit (rather than a record)?
+pub fn is_log_commit(unit: &[u8; UNIT]) -> bool {
+    unit[0] == 0 && unit[1] == 0 && unit[3] == LOG_TAG
+}
+
+/// The commit unit of a log entry of `count` records whose CRC `crc` has digested the page's
+/// sequence number and the records: it digests the unit's first four bytes and ends in the sum.
+pub fn log_commit(count: u8, mut crc: Crc32) -> [u8; UNIT] {
+    let mut unit = [0, 0, count, LOG_TAG, 0, 0, 0, 0];
+    crc.update(&unit[..4]);
+    unit[4..].copy_from_slice(&crc.finish().to_le_bytes());
+    unit
+}
+
+/// The CRC a log entry of the page with sequence number `sequence` starts from.
+pub fn log_crc(sequence: u32) -> Crc32 {
+    let mut crc = Crc32::new();
+    crc.update(&sequence.to_le_bytes());
+    crc
+}
+
+/// What a page's header says, once its records check ([`Image::decode_slot`]).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Slot {
+    /// Sequence number.
+    pub sequence: u32,
+    /// Layout version ([`VERSION`] or [`VERSION_1`]).
+    pub version: u16,
+    /// Number of records before the log.
+    pub records: usize,
 }
 
 /// The image is full ([`MAX_RECORDS`]).
@@ -171,13 +236,20 @@ impl Image {
         }
     }
 
+    /// Makes this image a copy of `other` (copying only the records it holds).
+    pub fn assign(&mut self, other: &Image) {
+        self.records.clear();
+        // Same capacity: the records always fit.
+        let _ = self.records.extend_from_slice(&other.records);
+    }
+
     /// Keeps only the records `keep` approves.
     pub fn retain(&mut self, keep: impl FnMut(&Record) -> bool) {
         self.records.retain(keep);
     }
 
     /// Appends a record read from a slot; false unless keys strictly increase and there is room.
-    fn push_sorted(&mut self, rec: Record) -> bool {
+    pub(crate) fn push_sorted(&mut self, rec: Record) -> bool {
         let ordered = self.records.last().is_none_or(|l| l.key() < rec.key());
         ordered && self.records.push(rec).is_ok()
     }
@@ -235,11 +307,22 @@ impl Image {
     /// sequence number; fills `out` with its records if given. `read` returns false when the
     /// bytes cannot be read.
     pub fn decode_with(
+        read: impl FnMut(usize, &mut [u8]) -> bool,
+        capacity: usize,
+        identity: u32,
+        out: Option<&mut Image>,
+    ) -> Result<u32, DecodeError> {
+        Image::decode_slot(read, capacity, identity, out).map(|slot| slot.sequence)
+    }
+
+    /// [`Image::decode_with`], returning the whole header: sequence, version, record count. The
+    /// log after the records (version 2) is the flash layer's.
+    pub fn decode_slot(
         mut read: impl FnMut(usize, &mut [u8]) -> bool,
         capacity: usize,
         identity: u32,
         mut out: Option<&mut Image>,
-    ) -> Result<u32, DecodeError> {
+    ) -> Result<Slot, DecodeError> {
         let mut head = [0u8; HEADER_SIZE];
         if capacity < HEADER_SIZE || !read(0, &mut head) {
             return Err(DecodeError::Unreadable);
@@ -255,7 +338,8 @@ impl Image {
             return Err(DecodeError::Magic);
         }
         let word = |at: usize| u32::from_le_bytes([h[at], h[at + 1], h[at + 2], h[at + 3]]);
-        if u16::from_le_bytes([h[4], h[5]]) != VERSION {
+        let version = u16::from_le_bytes([h[4], h[5]]);
+        if version != VERSION && version != VERSION_1 {
             return Err(DecodeError::Version);
         }
         let count = u16::from_le_bytes([h[6], h[7]]) as usize;
@@ -286,7 +370,7 @@ impl Image {
         if word(8) != identity {
             return Err(DecodeError::Foreign);
         }
-        Ok(word(12))
+        Ok(Slot { sequence: word(12), version, records: count })
     }
 }
 
@@ -400,9 +484,9 @@ mod tests {
         assert_eq!(Image::decode(&unfinished, id), Err(DecodeError::Uncommitted));
         assert_eq!(Image::decode(&[0xFF; 1024], id), Err(DecodeError::Uncommitted));
         assert_eq!(Image::decode(&[0x00; 1024], id), Err(DecodeError::Marker));
-        let mut v2 = buf;
-        v2[12] = 2;
-        assert_eq!(Image::decode(&v2, id), Err(DecodeError::Version));
+        let mut v3 = buf;
+        v3[12] = 3;
+        assert_eq!(Image::decode(&v3, id), Err(DecodeError::Version));
         let mut long = buf;
         long[14..16].copy_from_slice(&(MAX_RECORDS as u16 + 1).to_le_bytes());
         assert_eq!(Image::decode(&long, id), Err(DecodeError::Length));

@@ -3,8 +3,10 @@
 //!
 //! Three layers:
 //! - [`image`]: the stored values as records keyed by (index, sub-index) and their byte layout;
-//! - [`flash`]: a ring of flash pages over `embedded_storage::nor_flash::NorFlash`, where each
-//!   save goes to the next page and counts only once its commit marker is written;
+//! - [`flash`]: a ring of flash pages over `embedded_storage::nor_flash::NorFlash`: a save
+//!   appends the records it changes to the newest page's log and counts only once the entry's
+//!   commit unit is written; a page is erased only when the newest one is full, to start again
+//!   with the whole image;
 //! - this module: what the node does with them. At power-on the dictionary is built from the
 //!   image ([`Loaded`]); a 1010h "save" asks the shell for an `Output::Store`; a 1011h "load"
 //!   marks groups whose factory defaults the next NMT reset loads; an NMT reset loads the
@@ -32,6 +34,8 @@ pub const LOAD: u32 = 0x6461_6F6C;
 pub const EMCY_DATA_SET: u16 = 0x6300;
 /// Most user-stored entries (groups Comm, App, Manuf) a dictionary may declare.
 pub const MAX_STORED: usize = 64;
+// [`Storage`] keeps table positions in a byte.
+const _: () = assert!(crate::od::MAX_ENTRIES <= 256);
 
 /// What the parameter flash held at power-on.
 // The image is not boxed: no allocation. It lives only while the node powers on.
@@ -79,12 +83,20 @@ fn is_log(e: &Entry) -> bool {
     e.index == 0x1003
 }
 
+/// The bits of the user groups (Comm, App, Manuf) in a [`GroupMask`].
+const USER_GROUPS: u8 = GroupMask::ALL.0;
+/// The bits of a [`GroupMask`] that select entries by their hook.
+const BY_HOOK: u8 = GroupMask::LSS.0 | GroupMask::NODE_ID.0 | GroupMask::BITRATE.0;
+
 /// Does a store of `mask` write the entry?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
-    (is_user(e) && mask.contains(e.group))
-        || (mask.0 & GroupMask::LSS.0 != 0 && is_pending(e))
-        || (mask.0 & GroupMask::NODE_ID.0 != 0 && e.hook == Hook::Core(CoreHook::PendingNodeId))
-        || (mask.0 & GroupMask::BITRATE.0 != 0 && e.hook == Hook::Core(CoreHook::PendingBitrate))
+    // A user entry in a selected group: its group's bit is in the mask (Factory's and None's
+    // bits are outside USER_GROUPS).
+    e.group.bit() & mask.0 & USER_GROUPS != 0
+        || (mask.0 & BY_HOOK != 0
+            && ((mask.0 & GroupMask::LSS.0 != 0 && is_pending(e))
+                || (mask.0 & GroupMask::NODE_ID.0 != 0 && e.hook == Hook::Core(CoreHook::PendingNodeId))
+                || (mask.0 & GroupMask::BITRATE.0 != 0 && e.hook == Hook::Core(CoreHook::PendingBitrate))))
 }
 
 /// The user-stored entries as (slot in [`Storage`], position in the table, entry).
@@ -95,12 +107,18 @@ fn user_entries(table: &'static [Entry]) -> impl Iterator<Item = (usize, usize, 
 /// The node's view of its non-volatile parameters.
 #[derive(Clone, Debug)]
 pub struct Storage {
+    /// Position in the table of each user-stored entry (slot k of `stored`).
+    slots: [u8; MAX_STORED],
+    /// Number of user-stored entries.
+    count: usize,
     /// What the flash holds for each user-stored entry: the value an NMT reset loads.
     stored: [u32; MAX_STORED],
     /// Bit k: entry k is stored at its default, so it follows the node-ID (COB-IDs "+ node-ID").
     at_default: u64,
     /// Groups a 1011h "load" marked: the next reset loads their factory defaults.
     restore: GroupMask,
+    /// The node-ID every entry's `at_default` bit was computed for (`None`: not all the same).
+    captured_id: Option<u8>,
     /// The store the shell is performing.
     saving: Option<GroupMask>,
     /// The power-on found no usable image (reported by EMCY until a save succeeds).
@@ -123,20 +141,32 @@ impl Storage {
         self.saving.is_some()
     }
 
-    /// Records the current values of the entries `select` picks as the stored ones.
-    fn capture(&mut self, od: &Od, node_id: u8, select: impl Fn(&Entry) -> bool) {
-        for (k, pos, e) in user_entries(od.table()) {
-            if select(e) {
-                let value = od.get(pos);
-                self.stored[k] = value;
-                let bit = 1u64 << k;
-                if value == e.default_value(node_id) {
-                    self.at_default |= bit;
-                } else {
-                    self.at_default &= !bit;
-                }
+    /// Records the current values of the entries a store of `mask` writes (every user-stored
+    /// entry with `None`) as the stored ones. While every entry's `at_default` is known for this
+    /// node-ID, an entry whose value is the one recorded is left as it is: only a changed value
+    /// needs its default compared.
+    fn capture(&mut self, od: &Od, node_id: u8, mask: Option<GroupMask>) {
+        let all = mask.is_none_or(|m| m.0 & USER_GROUPS == USER_GROUPS);
+        let known = self.captured_id == Some(node_id);
+        for k in 0..self.count {
+            let pos = self.slots[k] as usize;
+            let value = od.get(pos);
+            if known && value == self.stored[k] {
+                continue;
+            }
+            let e = od.entry(pos);
+            if !all && !mask.is_some_and(|m| selected(e, m)) {
+                continue;
+            }
+            self.stored[k] = value;
+            let bit = 1u64 << k;
+            if value == e.default_value(node_id) {
+                self.at_default |= bit;
+            } else {
+                self.at_default &= !bit;
             }
         }
+        self.captured_id = if all || known { Some(node_id) } else { None };
     }
 }
 
@@ -163,13 +193,21 @@ pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -
         }
     }
     let mut storage = Storage {
+        slots: [0; MAX_STORED],
+        count: 0,
         stored: [0; MAX_STORED],
         at_default: 0,
         restore: GroupMask::default(),
+        captured_id: None,
         saving: None,
         fault: *loaded == Loaded::Invalid,
     };
-    storage.capture(&od, node_id, |_| true);
+    for (k, pos, _) in user_entries(table) {
+        // MAX_ENTRIES (160) positions fit a byte.
+        storage.slots[k] = pos as u8;
+        storage.count = k + 1;
+    }
+    storage.capture(&od, node_id, None);
     (od, storage, node_id)
 }
 
@@ -209,7 +247,7 @@ impl Storage {
         if !ok {
             return false;
         }
-        self.capture(od, node_id, |e| selected(e, mask));
+        self.capture(od, node_id, Some(mask));
         core::mem::replace(&mut self.fault, false)
     }
 
@@ -270,19 +308,103 @@ pub trait Parameters {
 /// (notably the COB-IDs "+ node-ID") follow a later node-ID change. Records of entries the
 /// dictionary no longer declares, or can no longer take, are dropped.
 pub fn merge(image: &mut Image, od: &Od, node_id: u8, mask: GroupMask) -> Result<(), image::Full> {
-    image.retain(|r| od.pos(r.index, r.sub).is_some_and(|p| r.fits(od.entry(p))));
-    for (pos, e) in od.table().iter().enumerate() {
-        let factory = e.group == Group::Factory && image.get(e.index, e.sub).is_none();
-        if selected(e, mask) || factory {
-            let value = od.get(pos);
-            if value == e.default_value(node_id) {
-                image.remove(e.index, e.sub);
+    let mut merged = Image::new();
+    merge_into(image.records(), &mut merged, &mut Log::new(), od, &Storable::of(od.table()), node_id, mask)?;
+    *image = merged;
+    Ok(())
+}
+
+/// The key of an entry or record as one number: index << 8 | sub-index.
+fn key(index: u16, sub: u8) -> u32 {
+    (index as u32) << 8 | sub as u32
+}
+
+/// Most records one log entry holds: a save that changes more starts a new page.
+pub(crate) const LOG_MAX: usize = 32;
+/// The records of one log entry.
+pub(crate) type Log = heapless::Vec<Record, LOG_MAX>;
+
+/// The table positions of the entries a store may write (a storage group, or a pending
+/// node-ID or bit rate), as a bit set: what [`merge_into`] walks instead of the whole table.
+#[derive(Clone, Debug)]
+pub(crate) struct Storable {
+    /// The table it was made for.
+    pub(crate) table: &'static [Entry],
+    bits: [u32; crate::od::MAX_ENTRIES.div_ceil(32)],
+}
+
+impl Storable {
+    /// The storable entries of `table` (at most [`crate::od::MAX_ENTRIES`], as `Od::new`
+    /// checks).
+    pub(crate) fn of(table: &'static [Entry]) -> Storable {
+        let mut bits = [0u32; crate::od::MAX_ENTRIES.div_ceil(32)];
+        for (pos, e) in table.iter().enumerate().take(crate::od::MAX_ENTRIES) {
+            if is_stored(e) || is_pending(e) {
+                bits[pos / 32] |= 1 << (pos % 32);
+            }
+        }
+        Storable { table, bits }
+    }
+}
+
+/// [`merge`] of the records `olds` into the empty `new`: one pass over the storable entries
+/// and the old records side by side (both sorted by index and sub-index). Returns how many keys changed
+/// (records added, changed or dropped): the records a log entry of this save holds, which go
+/// to `log` as far as it has room (a removal for a record dropped).
+pub(crate) fn merge_into(
+    olds: &[Record],
+    new: &mut Image,
+    log: &mut Log,
+    od: &Od,
+    storable: &Storable,
+    node_id: u8,
+    mask: GroupMask,
+) -> Result<usize, image::Full> {
+    let groups = mask.0 & USER_GROUPS;
+    let by_hook = mask.0 & BY_HOOK != 0;
+    let table = od.table();
+    let (mut i, mut changed) = (0, 0);
+    for (w, &word) in storable.bits.iter().enumerate() {
+        let mut bits = word;
+        while bits != 0 {
+            let pos = w * 32 + bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let Some(e) = table.get(pos) else { continue };
+            let k = key(e.index, e.sub);
+            // Records of keys the dictionary does not declare, or does not store, are passed
+            // over: dropped.
+            while let Some(r) = olds.get(i).filter(|r| key(r.index, r.sub) < k) {
+                let _ = log.push(Record::removal(r.index, r.sub));
+                i += 1;
+                changed += 1;
+            }
+            let stored = olds.get(i).filter(|r| key(r.index, r.sub) == k);
+            i += usize::from(stored.is_some());
+            let bit = e.group.bit();
+            let take = bit & groups != 0
+                || (by_hook && selected(e, mask))
+                || (e.group == Group::Factory && !stored.is_some_and(|r| r.fits(e)));
+            let record = if take {
+                let value = od.get(pos);
+                (value != e.default_value(node_id)).then(|| Record::of(e, value))
             } else {
-                image.set(Record::of(e, value))?;
+                stored.filter(|r| r.fits(e)).copied()
+            };
+            if record.as_ref() != stored {
+                let _ = log.push(record.unwrap_or(Record::removal(e.index, e.sub)));
+                changed += 1;
+            }
+            if let Some(r) = record {
+                if !new.push_sorted(r) {
+                    return Err(image::Full);
+                }
             }
         }
     }
-    Ok(())
+    for r in &olds[i..] {
+        let _ = log.push(Record::removal(r.index, r.sub));
+    }
+    Ok(changed + olds.len() - i)
 }
 
 #[cfg(test)]

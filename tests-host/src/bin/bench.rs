@@ -9,7 +9,7 @@
 use std::path::Path;
 use std::process::{Command, ExitCode};
 
-use tests_host::bench::{callgrind_total, per_operation, Extra, Kind, Workload, KINDS, WEAR_SAVES};
+use tests_host::bench::{callgrind_total, per_operation, Extra, Kind, Workload, KINDS, WEAR_PAGES};
 
 const HELP: &str = "\
 bench: instructions per operation of each workload under callgrind (issue 14)
@@ -208,7 +208,7 @@ fn print_table(kinds: &[&Kind], figures: &[Figure], only: Option<Workload>, quic
         println!();
         let pct = f.extra.erases_per_page_written_percent();
         println!(
-            "W6 wear ({}, {WEAR_SAVES} saves): {} page erases, {} bytes programmed: {}.{:02} erases per {} bytes \
+            "W6 wear ({}, steady state, {WEAR_PAGES} pages filled): {} page erases, {} bytes programmed: {}.{:02} erases per {} bytes \
              written (goal: at most 1, a page erased once it is full){}.",
             f.kind,
             f.extra.erases,
