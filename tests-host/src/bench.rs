@@ -146,10 +146,12 @@ pub struct Extra {
 }
 
 impl Extra {
-    /// Erases per page of data written, in hundredths: issue 14's goal is at most one (100),
-    /// a page erased only once a page's worth has been written to it, not at every save.
+    /// Erases per page written, in hundredths: issue 14's goal is at most one (100), a page
+    /// erased only once it is full, not at every save. The pages written are the bytes
+    /// programmed in whole pages, rounded up: a page whose last few bytes are too few for the
+    /// next save counts as full.
     pub fn erases_per_page_written_percent(&self) -> u64 {
-        (self.erases * PAGE as u64 * 100).div_ceil(self.bytes_written.max(1))
+        (self.erases * 100).div_ceil(self.bytes_written.div_ceil(PAGE as u64).max(1))
     }
 }
 
@@ -495,5 +497,9 @@ mod tests {
         assert_eq!(per_operation(1000, 1000 + 4175, 10), 418);
         assert_eq!(Extra { erases: 4, bytes_written: 2048 }.erases_per_page_written_percent(), 200);
         assert_eq!(Extra { erases: 1, bytes_written: 3 * 1024 }.erases_per_page_written_percent(), 34);
+        // Eight pages filled to their last 8 bytes, eight erases: one per page.
+        assert_eq!(Extra { erases: 8, bytes_written: 8 * 1016 }.erases_per_page_written_percent(), 100);
+        // The old store: an erase for every 40-byte save.
+        assert_eq!(Extra { erases: 32, bytes_written: 1280 }.erases_per_page_written_percent(), 1600);
     }
 }

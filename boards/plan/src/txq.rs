@@ -77,7 +77,10 @@ impl TxQueue {
     /// overlapping copy that links a 1.6 KiB `memmove` into the image).
     fn take(&mut self, i: usize) -> (u64, u32, Frame) {
         let last = self.q.len() - 1;
-        self.q.swap(i, last);
+        if i < last {
+            let (low, high) = self.q.split_at_mut(last);
+            core::mem::swap(&mut low[i], &mut high[0]);
+        }
         self.q.pop().expect("take of an entry the queue holds")
     }
 

@@ -549,7 +549,8 @@ mod tests {
             2 => Request { pgn: Pgn::ADDRESS_CLAIMED }.frame(Address::GLOBAL, other),
             3 => Request { pgn: Pgn::EPOS }.frame(me, other),
             4 => CamRequest::Read { index: 0x6004, sub: 0 }.frame(me, other),
-            5 => CamRequest::Write { index: 0x3000, sub: 2 + (v % 2) as u8, value: v % 200, len: Some(2) }.frame(me, other),
+            5 => CamRequest::Write { index: 0x3000, sub: 2 + (v % 2) as u8, value: v % 200, len: Some(2) }
+                .frame(me, other),
             6 => CamRequest::Write { index: 0x1010, sub: 1, value: 0x6576_6173, len: Some(4) }.frame(me, other),
             7 => CamRequest::Read { index: 0x1018, sub: 1 }.frame(Address(me.0 ^ 1), other),
             8 => Request { pgn: Pgn::ESPD }.frame(Address::GLOBAL, other),
@@ -577,15 +578,20 @@ mod tests {
                         b.on_frame(&f, now);
                     }
                     3 => {
-                        let raw = if (x >> 8) % 5 == 0 { Err(SensorFault::Diagnosis) } else { Ok((x >> 8) % (1 << 24)) };
+                        let raw =
+                            if (x >> 8) % 5 == 0 { Err(SensorFault::Diagnosis) } else { Ok((x >> 8) % (1 << 24)) };
                         let (d, c) = DeviceStation::split(&mut a);
                         d.on_sample(c, raw, now);
                         let (d, c) = DeviceStation::split(&mut b);
                         d.on_sample(c, raw, now);
                     }
                     4 => {
-                        let e = [BusEvent::ErrorPassive, BusEvent::ErrorActive, BusEvent::BusOff, BusEvent::BusOffRecovered]
-                            [(x >> 8) as usize % 4];
+                        let e = [
+                            BusEvent::ErrorPassive,
+                            BusEvent::ErrorActive,
+                            BusEvent::BusOff,
+                            BusEvent::BusOffRecovered,
+                        ][(x >> 8) as usize % 4];
                         a.on_bus_event(e, now);
                         b.on_bus_event(e, now);
                     }

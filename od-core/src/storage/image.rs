@@ -225,14 +225,31 @@ impl Image {
                 self.records[i] = rec;
                 Ok(())
             }
-            Err(i) => self.records.insert(i, rec).map_err(|_| Full),
+            Err(i) => {
+                // Appended, then moved down into place one swap at a time: `Vec::insert`'s
+                // overlapping copy would link a 1.6 KiB `memmove` into the firmware.
+                self.records.push(rec).map_err(|_| Full)?;
+                let mut at = self.records.len() - 1;
+                while at > i {
+                    let (low, high) = self.records.split_at_mut(at);
+                    core::mem::swap(&mut low[at - 1], &mut high[0]);
+                    at -= 1;
+                }
+                Ok(())
+            }
         }
     }
 
     /// Removes the record for (index, sub), if any.
     pub fn remove(&mut self, index: u16, sub: u8) {
-        if let Ok(i) = self.records.binary_search_by(|r| r.key().cmp(&(index, sub))) {
-            self.records.remove(i);
+        if let Ok(mut at) = self.records.binary_search_by(|r| r.key().cmp(&(index, sub))) {
+            // Moved up to the end one swap at a time, then dropped (no `memmove`, as in `set`).
+            while at + 1 < self.records.len() {
+                let (low, high) = self.records.split_at_mut(at + 1);
+                core::mem::swap(&mut low[at], &mut high[0]);
+                at += 1;
+            }
+            self.records.pop();
         }
     }
 

@@ -208,14 +208,15 @@ fn print_table(kinds: &[&Kind], figures: &[Figure], only: Option<Workload>, quic
         println!();
         let pct = f.extra.erases_per_page_written_percent();
         println!(
-            "W6 wear ({}, steady state, {WEAR_PAGES} pages filled): {} page erases, {} bytes programmed: {}.{:02} erases per {} bytes \
-             written (goal: at most 1, a page erased once it is full){}.",
+            "W6 wear ({}, steady state, {WEAR_PAGES} pages filled): {} page erases, {} bytes programmed ({} pages of {} bytes): \
+             {}.{:02} erases per page written (goal: at most 1, a page erased once it is full){}.",
             f.kind,
             f.extra.erases,
             thousands(f.extra.bytes_written),
+            f.extra.bytes_written.div_ceil(tests_host::flash::PAGE as u64),
+            tests_host::flash::PAGE,
             pct / 100,
             pct % 100,
-            tests_host::flash::PAGE,
             if pct > 100 { " (over)" } else { "" }
         );
     }
