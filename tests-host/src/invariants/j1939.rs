@@ -918,3 +918,81 @@ pub fn run_j1939(data: &[u8]) -> J1939Stats {
     }
     rig.stats
 }
+
+/// The checker catches each fault it is meant to catch: the checks fed what a faulty node
+/// would send or do after an input.
+#[cfg(test)]
+mod checker_fails {
+    use super::*;
+    use od_core::wire::j1939::AddressClaimed;
+
+    /// A channel whose claim of EFh stood, and what the checker sees of it.
+    fn claimed() -> (J1939Rig, Seen) {
+        let mut rig = J1939Rig::new(Turns::Multi12, 0x1_2345, None);
+        rig.apply(Action::Advance(500_000)).unwrap();
+        let seen = Seen::of(&rig.node);
+        assert_eq!(seen.source, Some(Address(0xEF)));
+        (rig, seen)
+    }
+
+    fn violation(
+        rig: &mut J1939Rig,
+        input: Input,
+        before: &Seen,
+        after: &Seen,
+        sent: &[Frame],
+        stores: &[GroupMask],
+    ) -> String {
+        match rig.check(&input, before, after, sent, stores) {
+            Err(v) => v.0,
+            Ok(()) => panic!("the checker missed the fault"),
+        }
+    }
+
+    fn ext(raw: u32, data: &[u8]) -> Frame {
+        Frame::new(CanId::Ext(raw), data)
+    }
+
+    #[test]
+    fn each_fault_is_caught() {
+        let (mut rig, seen) = claimed();
+        let poll = Input::Poll;
+        // A group from an address that is not ours, and one we do not own.
+        let v = violation(&mut rig, poll, &seen, &seen, &[ext(0x0CFC_5F80, &[0; 8])], &[]);
+        assert!(v.contains("not an address whose claim stood"), "{v}");
+        let v = violation(&mut rig, poll, &seen, &seen, &[ext(0x18FE_EEEF, &[0; 8])], &[]);
+        assert!(v.contains("does not own"), "{v}");
+        // EPOS at another priority than 3000h.06 gives.
+        let v = violation(&mut rig, poll, &seen, &seen, &[ext(0x18FC_5FEF, &[0; 8])], &[]);
+        assert!(v.contains("priority"), "{v}");
+        // A claim with another NAME.
+        let other = AddressClaimed { name: Name::from_raw(1) }.frame(Address(0xEF));
+        let v = violation(&mut rig, poll, &seen, &seen, &[other], &[]);
+        assert!(v.contains("another NAME"), "{v}");
+        // Two answers to a Request for EPOS; none to one to us for another group.
+        let req = Input::Frame(ext(0x18EA_FF00, &[0x5F, 0xFC, 0x00]));
+        let epos = ext(0x0CFC_5FEF, &[0; 8]);
+        let v = violation(&mut rig, req, &seen, &seen, &[epos, epos], &[]);
+        assert!(v.contains("2 answers"), "{v}");
+        let nack_due = Input::Frame(ext(0x18EA_EF00, &[0xEE, 0xFE, 0x00]));
+        let v = violation(&mut rig, nack_due, &seen, &seen, &[], &[]);
+        assert!(v.contains("not a NACK"), "{v}");
+        // A store without a request; a CAM21 answered to another master, or not at all.
+        let v = violation(&mut rig, poll, &seen, &seen, &[], &[GroupMask::ALL]);
+        assert!(v.contains("without a CAM21"), "{v}");
+        let read = Input::Frame(ext(0x1C06_EF21, &crate::encoder::upload_request(0x1000, 0)));
+        let v = violation(&mut rig, read, &seen, &seen, &[ext(0x1C05_00EF, &[0x43, 0, 0x10, 0, 0, 0, 0, 0])], &[]);
+        assert!(v.contains("the request came from"), "{v}");
+        let v = violation(&mut rig, read, &seen, &seen, &[], &[]);
+        assert!(v.contains("unanswered"), "{v}");
+        // A claim standing before its 250 ms; a lost contest not given up.
+        let since = rig.now;
+        let claiming = Seen { state: State::Claiming { address: Address(0xEF), since }, source: None, ..seen };
+        let v = violation(&mut rig, poll, &claiming, &seen, &[], &[]);
+        assert!(v.contains("stood at"), "{v}");
+        let lower = AddressClaimed { name: Name::from_raw(seen.name.raw() - 1) }.frame(Address(0xEF));
+        let ours = AddressClaimed { name: seen.name }.frame(Address(0xEF));
+        let v = violation(&mut rig, Input::Frame(lower), &seen, &seen, &[ours], &[]);
+        assert!(v.contains("contest lost"), "{v}");
+    }
+}
