@@ -18,12 +18,15 @@
 //! NMT resets, PDO configuration writes, saves), so that random bytes reach deep states. The
 //! stable proptest (`tests/fuzz_props.rs`) and the cargo-fuzz targets (`fuzz/`) share it.
 //!
-//! The device kinds are listed once in [`KINDS`]; a new device (the WV58MR) joins with its
-//! [`Kind`] variant, one line in [`KINDS`] and one arm in [`Kind::boot`]. The AP10T is one:
-//! its keys are its own input ([`KeyedAp10t`]), and the checker knows what only it does: a
-//! frame during the bit-rate detection only proves the rate, the external heartbeat (5F09h)
-//! running out sends it to PRE-OPERATIONAL, an auto-ID write is answered at the key, and the
-//! key menu asks for its own stores.
+//! The device kinds are listed once in [`KINDS`]; a new CANopen device joins with its
+//! [`Kind`] variant, one line in [`KINDS`] and one arm in [`Kind::boot`]. The WV58MR, a J1939
+//! node, has its own rig and checks in [`j1939`], over the same actions and decoder. The AP10T
+//! is one of [`KINDS`]: its keys are its own input ([`KeyedAp10t`]), and the checker knows what
+//! only it does: a frame during the bit-rate detection only proves the rate, the external
+//! heartbeat (5F09h) running out sends it to PRE-OPERATIONAL, a remote frame on RPDO1/RPDO2
+//! in OPERATIONAL is answered on its own identifier (the set point read back), an auto-ID write
+//! is answered at the key or when the node-ID's store it asks for is done, and the key menu
+//! asks for its own stores (the node-ID or bit rate alone, which the next power-on must find).
 
 use std::collections::HashMap;
 use std::fmt;
@@ -37,6 +40,8 @@ use od_core::storage::{identity, Image, Loaded, ParamFlash, Record, Region};
 use od_core::{CanId, Frame, Instant, NmtState};
 
 use crate::flash::RamFlash;
+
+pub mod j1939;
 
 /// The parameter pages the harness gives every node: three pages, as the firmware's ring.
 pub const REGION: Region = Region { offset: 0, pages: 3 };
@@ -761,9 +766,15 @@ macro_rules! ensure {
 /// Is `e` a user-stored entry (1010h groups) and does a store of `mask` write it?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
     let user = matches!(e.group, Group::Comm | Group::App | Group::Manuf);
-    let pending =
-        matches!(e.hook, Hook::Core(od_core::od::CoreHook::PendingNodeId | od_core::od::CoreHook::PendingBitrate));
-    (user && mask.contains(e.group)) || (mask.0 & GroupMask::LSS.0 != 0 && pending)
+    // LSS store configuration keeps the pending node-ID and bit rate, the AP10T's Auto-ID and
+    // menu `ID` the node-ID alone, its `KBAUD` the bit rate alone.
+    let (id, rate) = (GroupMask::LSS.0 | GroupMask::NODE_ID.0, GroupMask::LSS.0 | GroupMask::BITRATE.0);
+    let pending = match e.hook {
+        Hook::Core(od_core::od::CoreHook::PendingNodeId) => mask.0 & id != 0,
+        Hook::Core(od_core::od::CoreHook::PendingBitrate) => mask.0 & rate != 0,
+        _ => false,
+    };
+    (user && mask.contains(e.group)) || pending
 }
 
 /// The identifiers a node may send on now, and in which NMT states.
@@ -774,6 +785,8 @@ struct Owned {
     lss: bool,
     emcy: Option<CanId>,
     tpdos: Vec<CanId>,
+    /// The valid RPDO1 and RPDO2 COB-IDs (the AP10T answers remote frames on them).
+    rpdos: Vec<CanId>,
     nmt: NmtState,
 }
 
@@ -790,7 +803,20 @@ impl Owned {
                 }
             }
         }
-        Owned { node_id: core.node_id, configured, lss: node.lss().enabled(), emcy, tpdos, nmt: node.nmt_state() }
+        let rpdos = (0..2u16)
+            .filter_map(|n| core.od.value(0x1400 + n, 1))
+            .filter(|v| v & 0x8000_0000 == 0)
+            .map(CanId::from_cob_id)
+            .collect();
+        Owned {
+            node_id: core.node_id,
+            configured,
+            lss: node.lss().enabled(),
+            emcy,
+            tpdos,
+            rpdos,
+            nmt: node.nmt_state(),
+        }
     }
 
     /// Is the node allowed to send `f` in this configuration?
@@ -1102,8 +1128,13 @@ impl Rig {
         // Nothing lost: checked first, since a lost output breaks what the checks below see.
         check_outbox(self.node.core())?;
         // Identifiers and states.
+        let rtr_answers = sent.iter().filter(|f| self.rtr_answer(input, before, f)).count();
+        ensure!(rtr_answers <= 1, "{rtr_answers} answers to one remote frame");
         for f in sent {
-            ensure!(before.allows(f) || after.allows(f), "sent {f:?}, not an identifier it owns in this state");
+            ensure!(
+                before.allows(f) || after.allows(f) || self.rtr_answer(input, before, f),
+                "sent {f:?}, not an identifier it owns in this state"
+            );
             if before.configured && f.id == CanId::Std(0x700 + before.node_id as u16)
                 || after.configured && f.id == CanId::Std(0x700 + after.node_id as u16)
             {
@@ -1205,6 +1236,22 @@ impl Rig {
         self.check_values()
     }
 
+    /// Is `f` the AP10T's answer to a remote frame on RPDO1 or RPDO2 (`input`), which it
+    /// sends in OPERATIONAL on the remote frame's own identifier with 8 bytes: the set point
+    /// read back (manual 4.3, "via RTR at RPDO1 and RPDO2 the setpoints can be read"; D-PDO-7,
+    /// D-AP-22)?
+    fn rtr_answer(&self, input: &Input, before: &Owned, f: &Frame) -> bool {
+        let Input::Frame(rtr) = input else { return false };
+        self.kind == Kind::Ap10t
+            && rtr.rtr
+            && rtr.id == f.id
+            && !f.rtr
+            && f.len == 8
+            && before.configured
+            && before.nmt == NmtState::Operational
+            && before.rpdos.contains(&f.id)
+    }
+
     /// The request behind a store of `mask` at `input`, or the violation.
     fn store_origin(
         &self,
@@ -1247,23 +1294,7 @@ impl Rig {
             );
             return Ok(StoreOrigin::Lss);
         }
-        let d = f.payload();
-        ensure!(d.len() == 8, "store on a short frame");
-        let (index, sub, data): (u16, u8, Vec<u8>) = if d[0] >> 5 == 1 && d[0] & 2 != 0 {
-            let n = if d[0] & 1 != 0 { 4 - ((d[0] >> 2) & 3) as usize } else { 4 };
-            (u16::from_le_bytes([d[1], d[2]]), d[3], d[4..4 + n].to_vec())
-        } else if let SdoModel::Open { download: Some((i, s)), .. } = self.sdo {
-            let n = 7 - ((d[0] >> 1) & 7) as usize;
-            let mut all = self.download.clone();
-            all.extend_from_slice(&d[1..1 + n]);
-            (i, s, all)
-        } else {
-            return Err(Violation(format!("store {mask:?} on {f:?}, no download open")));
-        };
-        ensure!(
-            index == 0x1010 && data == b"save" && GroupMask::from_subindex(sub) == Some(mask),
-            "store {mask:?} on a write of {data:02X?} to {index:04X}h.{sub:02X}"
-        );
+        sdo_save(f.payload(), self.sdo, &self.download, mask).map_err(|v| Violation(format!("{v} ({f:?})")))?;
         Ok(StoreOrigin::Sdo)
     }
 
@@ -1321,24 +1352,8 @@ impl Rig {
                     self.sdo = SdoModel::Idle;
                     return Ok(());
                 };
-                ensure!(ccs != 4, "answer {a:02X?} to a client abort");
-                let open = match (ccs, a[0]) {
-                    (_, 0x80) => false,
-                    (2, 0x41) => true,
-                    (2, s) if s & 0xF3 == 0x43 => false,
-                    (1, 0x60) => req[0] & 2 == 0,
-                    (3, s) if s >> 5 == 0 => s & 1 == 0,
-                    (0, s) if s >> 5 == 1 => {
-                        if req[0] & 1 != 0 {
-                            self.stats.segmented_done += 1;
-                        }
-                        req[0] & 1 == 0
-                    }
-                    _ => return Err(Violation(format!("answer {a:02X?} does not fit request {req:02X?}"))),
-                };
-                if a[0] == 0x80 && ccs <= 3 && ccs != 0 && ccs != 3 {
-                    ensure!(a[1..4] == req[1..4], "abort {a:02X?} names another object than {req:02X?}");
-                }
+                let (open, done) = sdo_answer_fits(&req, &a)?;
+                self.stats.segmented_done += done as u64;
                 if open {
                     let download = match (ccs, self.sdo) {
                         (1, _) => {
@@ -1384,6 +1399,18 @@ impl Rig {
                     );
                 }
             }
+            // The Auto-ID key asks for the node-ID's store and for the waiting answer, which
+            // goes out at the next poll (`60 0A 5F 02 ...`) or, if the store is done first (the
+            // firmware carries out a store before it polls), when it is done: `60 0A 5F 02 ...`
+            // or, if the flash failed, 08000020h "cannot store".
+            Input::StoreDone { origin: StoreOrigin::Panel, .. } if self.auto_id && answer.is_some() => {
+                let a = answer.unwrap_or_default();
+                ensure!(
+                    a == [0x60, 0x0A, 0x5F, 0x02, 0, 0, 0, 0] || a == [0x80, 0x0A, 0x5F, 0x02, 0x20, 0x00, 0x00, 0x08],
+                    "answer {a:02X?} to the auto-ID write when its store is done"
+                );
+                self.auto_id = false;
+            }
             Input::StoreDone { origin, .. } => {
                 if let Some(a) = answer {
                     ensure!(*origin == StoreOrigin::Sdo && self.deferred, "SDO answer {a:02X?} to no pending save");
@@ -1424,6 +1451,53 @@ impl Rig {
     fn check_values(&self) -> Result<(), Violation> {
         check_values(self.node.core())
     }
+}
+
+/// The store of `mask` an SDO request `d` asked for: an expedited write of "save" to 1010h sub
+/// 1..4 with the matching group mask, or the last segment of a segmented download of "save"
+/// that the server has open (`sdo`, with the bytes so far in `download`).
+fn sdo_save(d: &[u8], sdo: SdoModel, download: &[u8], mask: GroupMask) -> Result<(), Violation> {
+    ensure!(d.len() == 8, "store on a short frame");
+    let (index, sub, data): (u16, u8, Vec<u8>) = if d[0] >> 5 == 1 && d[0] & 2 != 0 {
+        let n = if d[0] & 1 != 0 { 4 - ((d[0] >> 2) & 3) as usize } else { 4 };
+        (u16::from_le_bytes([d[1], d[2]]), d[3], d[4..4 + n].to_vec())
+    } else if let SdoModel::Open { download: Some((i, s)), .. } = sdo {
+        let n = 7 - ((d[0] >> 1) & 7) as usize;
+        let mut all = download.to_vec();
+        all.extend_from_slice(&d[1..1 + n]);
+        (i, s, all)
+    } else {
+        return Err(Violation(format!("store {mask:?} on {d:02X?}, no download open")));
+    };
+    ensure!(
+        index == 0x1010 && data == b"save" && GroupMask::from_subindex(sub) == Some(mask),
+        "store {mask:?} on a write of {data:02X?} to {index:04X}h.{sub:02X}"
+    );
+    Ok(())
+}
+
+/// Does the SDO server's answer `a` fit the client's request `req`? Returns whether the
+/// transfer stays open after it, and whether it completed a segmented download.
+fn sdo_answer_fits(req: &[u8; 8], a: &[u8; 8]) -> Result<(bool, bool), Violation> {
+    let ccs = req[0] >> 5;
+    ensure!(ccs != 4, "answer {a:02X?} to a client abort");
+    let mut done = false;
+    let open = match (ccs, a[0]) {
+        (_, 0x80) => false,
+        (2, 0x41) => true,
+        (2, s) if s & 0xF3 == 0x43 => false,
+        (1, 0x60) => req[0] & 2 == 0,
+        (3, s) if s >> 5 == 0 => s & 1 == 0,
+        (0, s) if s >> 5 == 1 => {
+            done = req[0] & 1 != 0;
+            req[0] & 1 == 0
+        }
+        _ => return Err(Violation(format!("answer {a:02X?} does not fit request {req:02X?}"))),
+    };
+    if a[0] == 0x80 && (ccs == 1 || ccs == 2) {
+        ensure!(a[1..4] == req[1..4], "abort {a:02X?} names another object than {req:02X?}");
+    }
+    Ok((open, done))
 }
 
 /// The node's outbox never dropped an output: the rig drains it after every call, as every

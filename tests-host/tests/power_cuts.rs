@@ -12,7 +12,7 @@ use od_core::node::{BusEvent, Output};
 use od_core::od::{Group, GroupMask};
 use od_core::storage::crc::Crc32;
 use od_core::storage::{identity, Loaded, ParamFlash};
-use od_core::{Frame, Instant};
+use od_core::{CanId, Context, Frame, Instant};
 use tests_host::encoder::download_request;
 use tests_host::flash::{FlashError, RamFlash, PAGE};
 use tests_host::invariants::{Kind, Subject, ENCODERS, REGION};
@@ -148,16 +148,44 @@ fn prepare(kind: Kind, flash: &mut ParamFlash<RamFlash>, path: Path, n: u32) -> 
 
 /// Sweeps every cut point of one save; returns the number of cut points tried.
 fn sweep(kind: Kind, flash: &ParamFlash<RamFlash>, path: Path, n: u32) -> u64 {
-    let old_loaded = flash.clone().load();
-    let old = snapshot(kind, &old_loaded);
     let mut scratch = flash.clone();
     let (node, mask) = prepare(kind, &mut scratch, path, n);
+    let what = format!("{kind:?} {}", path.name());
+    sweep_save(&what, flash, node.core(), mask, &|l| snapshot(kind, l), &|l| reports_corrupt(kind, l))
+}
+
+/// Does a CANopen node booted from `loaded` report the corrupt image by EMCY 6300h after its
+/// boot-up? (An AP10T detecting the bit rate first hears a frame.)
+fn reports_corrupt(kind: Kind, loaded: &Loaded) -> bool {
+    let mut node = kind.boot(loaded);
+    node.poll(Instant::ZERO);
+    if node.listen_only() {
+        node.on_frame(&Frame::std(0, &[0x80, 0x7E]), Instant::from_millis(1));
+        node.poll(Instant::from_millis(2));
+    }
+    let (frames, _) = drain(node.as_mut());
+    frames.iter().any(|f| f.id.raw() & 0x780 == 0x80 && f.payload()[..2] == [0x00, 0x63])
+}
+
+/// Sweeps every cut point of the save of `mask` from `params` over `flash`: after each cut the
+/// power-on (`snapshot`) finds the old or the new parameters, a corrupt image is reported
+/// (`reports_corrupt`), and the save works again. Returns the number of cut points tried.
+fn sweep_save(
+    what: &str,
+    flash: &ParamFlash<RamFlash>,
+    params: &Context,
+    mask: GroupMask,
+    snapshot: &dyn Fn(&Loaded) -> Snapshot,
+    reports_corrupt: &dyn Fn(&Loaded) -> bool,
+) -> u64 {
+    let old_loaded = flash.clone().load();
+    let old = snapshot(&old_loaded);
     let mut probe = flash.clone();
     let start = probe.flash().ops();
-    probe.save(node.core(), mask).expect("save without a cut");
+    probe.save(params, mask).expect("save without a cut");
     let ops = probe.flash().ops() - start;
-    let new = snapshot(kind, &probe.load());
-    assert_ne!(old, new, "{kind:?} {}: the save changes nothing", path.name());
+    let new = snapshot(&probe.load());
+    assert_ne!(old, new, "{what}: the save changes nothing");
     let mut tried = 0;
     for k in 0..ops {
         for tear in TEARS {
@@ -167,16 +195,15 @@ fn sweep(kind: Kind, flash: &ParamFlash<RamFlash>, path: Path, n: u32) -> u64 {
                 Tear::Torn(m) => q.flash().cut_after(k, Some(m)),
                 Tear::Garbage(v) => q.flash().cut_garbage(k, v),
             }
-            let r = q.save(node.core(), mask);
+            let r = q.save(params, mask);
             assert!(
                 matches!(r, Err(od_core::storage::SaveError::Flash(FlashError::PowerLost))),
-                "{kind:?} {} cut at {k}/{ops}: {r:?}",
-                path.name()
+                "{what} cut at {k}/{ops}: {r:?}"
             );
             q.flash().power_on();
             let loaded = q.load();
-            let after = snapshot(kind, &loaded);
-            let what = format!("{kind:?} {} cut at op {k}/{ops} {tear:?}: {loaded:?}", path.name());
+            let after = snapshot(&loaded);
+            let what = format!("{what} cut at op {k}/{ops} {tear:?}: {loaded:?}");
             if after != old {
                 assert_eq!(after, new, "{what}: neither old nor new");
                 // Four half-words make the commit marker, written last.
@@ -186,17 +213,11 @@ fn sweep(kind: Kind, flash: &ParamFlash<RamFlash>, path: Path, n: u32) -> u64 {
             // marker goes): defaults either way, reported by EMCY 6300h.
             if loaded == Loaded::Invalid {
                 assert_eq!(old_loaded, Loaded::Blank, "{what}");
-                let mut node = kind.boot(&loaded);
-                node.poll(Instant::ZERO);
-                let (frames, _) = drain(node.as_mut());
-                assert!(
-                    frames.iter().any(|f| f.id.raw() & 0x780 == 0x80 && f.payload()[..2] == [0x00, 0x63]),
-                    "{what}: no EMCY 6300h after the boot-up: {frames:02X?}"
-                );
+                assert!(reports_corrupt(&loaded), "{what}: no EMCY 6300h after the boot-up");
                 CORRUPT.with(|c| c.set(c.get() + 1));
             }
-            q.save(node.core(), mask).expect("the save works after the cut");
-            assert_eq!(snapshot(kind, &q.load()), new, "{what}: the retried save");
+            q.save(params, mask).expect("the save works after the cut");
+            assert_eq!(snapshot(&q.load()), new, "{what}: the retried save");
             tried += 1;
         }
     }
@@ -283,5 +304,210 @@ fn every_store_path_survives_a_cut_where_a_page_is_full_or_of_the_old_format() {
         eprintln!("{name}, full page or version 1: {total} cut points ({corrupt} read as corrupt)");
         assert!(*total > 1000, "{name}: only {total} cut points");
         assert_eq!(*corrupt, 0, "{name}: the old image is always there");
+    }
+}
+
+/// The AP10T's own store paths: the Auto-ID key (manual 4.6.2, D-AP-18: the node-ID alone), the
+/// key menu's ID (D-AP-9: the node-ID alone) and its CODE 011102 (Table 3, D-AP-16: factory
+/// settings but the bus parameters, every group stored at the reset that follows).
+#[derive(Clone, Copy, Debug)]
+enum PanelPath {
+    AutoId,
+    MenuId,
+    MenuCode,
+}
+
+/// The AP10T's keys as its `Subject` takes them (`KeyedAp10t`): front, left, star, up.
+const FRONT: u32 = 0;
+const LEFT: u32 = 1;
+const STAR: u32 = 2;
+const UP: u32 = 3;
+
+/// An AP10T booted from `flash`, its bit rate detected and booted up (node 7Dh on a blank
+/// flash).
+fn ap10t_booted(flash: &mut ParamFlash<RamFlash>) -> Box<dyn Subject> {
+    let mut node = Kind::Ap10t.boot(&flash.load());
+    node.poll(Instant::ZERO);
+    if node.listen_only() {
+        node.on_frame(&Frame::std(0, &[0x80, 0x7E]), Instant::from_millis(1));
+    }
+    node.poll(Instant::from_millis(2));
+    drain(node.as_mut());
+    node
+}
+
+/// Presses and releases `keys` in turn; returns the stores the node asked for.
+fn keys(node: &mut dyn Subject, keys: &[u32]) -> Vec<GroupMask> {
+    let mut stores = Vec::new();
+    for (k, &key) in keys.iter().enumerate() {
+        let now = Instant::from_millis(2000 + k as u64);
+        node.sample(Ok(key), now);
+        node.sample(Ok(key | 4), now);
+        node.poll(now);
+        stores.extend(drain(node).1);
+    }
+    stores
+}
+
+/// Prepares an AP10T on `flash` for the store of `path`; returns it and the store's mask.
+fn ap10t_prepare(flash: &mut ParamFlash<RamFlash>, path: PanelPath, n: u32) -> (Box<dyn Subject>, GroupMask) {
+    let mut node = ap10t_booted(flash);
+    assert_eq!(node.core().node_id, 0x7D, "the ring keeps the factory node-ID");
+    let stores = match path {
+        PanelPath::AutoId => {
+            let (frames, stores) = feed(node.as_mut(), Frame::std(0x67D, &download_request(0x5F0A, 2, 1, 1 + n % 100)));
+            assert!(frames.is_empty() && stores.is_empty(), "the Auto-ID answers at the key: {frames:02X?}");
+            keys(node.as_mut(), &[STAR])
+        }
+        PanelPath::MenuId => {
+            // ID 125 -> 7, 8 or 9: units up 2..4 times, tens 2 -> 0, hundreds 1 -> 0.
+            let mut k = vec![LEFT, LEFT, STAR];
+            k.extend(std::iter::repeat_n(UP, 2 + n as usize % 3));
+            k.push(LEFT);
+            k.extend(std::iter::repeat_n(UP, 8));
+            k.push(LEFT);
+            k.extend(std::iter::repeat_n(UP, 9));
+            k.extend([STAR, FRONT]);
+            keys(node.as_mut(), &k)
+        }
+        PanelPath::MenuCode => {
+            // A bus parameter changed and not saved: CODE 011102 keeps it and stores it.
+            feed(node.as_mut(), Frame::std(0x67D, &download_request(0x1017, 0, 2, 1000 + n)));
+            let mut k = vec![LEFT, LEFT, UP, UP, STAR];
+            for (i, digit) in [2usize, 0, 1, 1, 1, 0].into_iter().enumerate() {
+                k.extend(std::iter::repeat_n(UP, digit));
+                if i < 5 {
+                    k.push(LEFT);
+                }
+            }
+            k.push(STAR);
+            keys(node.as_mut(), &k)
+        }
+    };
+    assert_eq!(stores.len(), 1, "{path:?}: stores {stores:?}");
+    (node, stores[0])
+}
+
+/// Moves the AP10T's ring on by one 1010h.01 save (5F11h changed, the node-ID kept at 7Dh).
+fn ap10t_ring_step(flash: &mut ParamFlash<RamFlash>, n: u32) {
+    let mut node = ap10t_booted(flash);
+    feed(node.as_mut(), Frame::std(0x67D, &download_request(0x5F11, 0, 1, 1 + n % 3)));
+    let (_, stores) =
+        feed(node.as_mut(), Frame::std(0x67D, &download_request(0x1010, 1, 4, u32::from_le_bytes(*b"save"))));
+    flash.save(node.core(), stores[0]).unwrap();
+}
+
+#[test]
+fn the_ap10t_key_stores_survive_a_cut_at_every_operation() {
+    let kind = Kind::Ap10t;
+    for path in [PanelPath::AutoId, PanelPath::MenuId, PanelPath::MenuCode] {
+        let mut total = 0;
+        let mut flash = ParamFlash::new(RamFlash::new(REGION.pages as usize), REGION, identity(kind.table()));
+        for n in 0..=REGION.pages {
+            let (node, mask) = ap10t_prepare(&mut flash.clone(), path, n);
+            let what = format!("AP10T {path:?} (store {mask:?})");
+            total +=
+                sweep_save(&what, &flash, node.core(), mask, &|l| snapshot(kind, l), &|l| reports_corrupt(kind, l));
+            ap10t_ring_step(&mut flash, n);
+        }
+        let corrupt = CORRUPT.with(|c| c.replace(0));
+        eprintln!("AP10T {path:?}: {total} cut points ({corrupt} read as corrupt, reported by EMCY 6300h)");
+        // The log-structured store appends a save in a few dozen operations (D-STO-11).
+        assert!(total > 300, "{path:?}: only {total} cut points");
+    }
+}
+
+mod wv58mr {
+    use super::*;
+    use od_core::devices::wv5800m::Turns;
+    use od_core::devices::wv58mr::Wv58mr;
+    use od_core::j1939::node::J1939Node;
+
+    type Wv58 = J1939Node<Wv58mr>;
+
+    fn boot(loaded: &Loaded) -> Wv58 {
+        J1939Node::boot(Wv58mr::new(Turns::Multi12), loaded)
+    }
+
+    /// The stored parameters after power-on (the 1003h log left out: a corrupt image enters
+    /// 6300h there at once).
+    pub fn snapshot(loaded: &Loaded) -> Snapshot {
+        let node = boot(loaded);
+        let od = &node.context().od;
+        od.table()
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.group != Group::None && e.index != 0x1003)
+            .map(|(pos, e)| (e.index, e.sub, od.get(pos)))
+            .collect()
+    }
+
+    /// Runs `node` to `until` ms, polling at its deadlines; returns the frames it sent.
+    fn run(node: &mut Wv58, from: u64, until: u64) -> Vec<Frame> {
+        let mut frames = Vec::new();
+        let mut now = Instant::from_millis(from);
+        loop {
+            node.poll(now);
+            while let Some(o) = node.next_output() {
+                if let Output::Frame(f) = o {
+                    frames.push(f);
+                }
+            }
+            match node.next_deadline() {
+                Some(t) if t <= Instant::from_millis(until) => now = t.max(now),
+                _ => return frames,
+            }
+        }
+    }
+
+    /// The WV58MR reports a corrupt image by EMCY 6300h (PGN 64616) once its claim stood.
+    pub fn reports_corrupt(loaded: &Loaded) -> bool {
+        let mut node = boot(loaded);
+        run(&mut node, 0, 500).iter().any(|f| f.id.raw() >> 8 & 0x3FFFF == 0xFC68 && f.payload()[..2] == [0x00, 0x63])
+    }
+
+    /// A WV58MR from `flash`, claimed, with parameters of the application and manufacturer
+    /// groups changed by CAM21, asked to save 1010h.`sub`; returns it and the store's mask.
+    pub fn prepare(flash: &ParamFlash<RamFlash>, sub: u8, n: u32) -> (Wv58, GroupMask) {
+        let mut node = boot(&flash.clone().load());
+        run(&mut node, 0, 500);
+        let sa = node.source_address().expect("claimed").0 as u32;
+        let mut stores = Vec::new();
+        let mut cam = |node: &mut Wv58, index: u16, s: u8, size: usize, value: u32| {
+            let f = Frame::new(CanId::Ext(0x1C06_0000 | sa << 8), &download_request(index, s, size, value));
+            node.on_frame(&f, Instant::from_millis(600));
+            while let Some(o) = node.next_output() {
+                if let Output::Store(m) = o {
+                    stores.push(m);
+                }
+            }
+        };
+        cam(&mut node, 0x6401, 1, 4, 1000 + 10 * n); // application: work area 1's low limit
+        cam(&mut node, 0x3000, 1, 2, 100 + n); // manufacturer: Proprietary B's cycle time
+        cam(&mut node, 0x3000, 4, 1, n % 8); // manufacturer: its priority
+        cam(&mut node, 0x1010, sub, 4, u32::from_le_bytes(*b"save"));
+        assert_eq!(stores.len(), 1, "WV58MR 1010h.{sub}: stores {stores:?}");
+        (node, stores[0])
+    }
+}
+
+#[test]
+fn the_wv58mr_save_survives_a_cut_at_every_operation() {
+    use od_core::devices::wv5800m::Turns;
+    let table = od_core::devices::wv58mr::table_of(Turns::Multi12);
+    for sub in [1u8, 3, 4] {
+        let mut total = 0;
+        let mut flash = ParamFlash::new(RamFlash::new(REGION.pages as usize), REGION, identity(table));
+        for n in 0..=REGION.pages {
+            let (node, mask) = wv58mr::prepare(&flash, sub, n);
+            let what = format!("WV58MR 1010h.{sub:02}");
+            total += sweep_save(&what, &flash, node.context(), mask, &wv58mr::snapshot, &wv58mr::reports_corrupt);
+            let (node, mask) = wv58mr::prepare(&flash, 1, n + 7);
+            flash.save(node.context(), mask).unwrap();
+        }
+        let corrupt = CORRUPT.with(|c| c.replace(0));
+        eprintln!("WV58MR 1010h.{sub:02}: {total} cut points ({corrupt} read as corrupt, reported by EMCY 6300h)");
+        // The log-structured store appends a save in a few dozen operations (D-STO-11).
+        assert!(total > 300, "1010h.{sub}: only {total} cut points");
     }
 }

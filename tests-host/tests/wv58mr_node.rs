@@ -681,3 +681,67 @@ mod fuzz {
         }
     }
 }
+
+/// Found by the J1939 invariant proptest: a client abort (from any master) while a 1010h save
+/// waits for its store took over the waiting answer's destination, so the save's CAM11 went to
+/// the master that aborted, not to the one that asked for the save. The answer goes to the
+/// save's requester.
+#[test]
+fn a_save_is_answered_to_its_requester_after_another_masters_abort() {
+    use od_core::node::Output;
+    let table = table_of(Turns::Multi12);
+    let pages = factory_pages(table, None, Some(SERIAL)).unwrap();
+    let mut flash = ParamFlash::new(RamFlash::from_bytes(pages), REGION, identity(table));
+    let mut node = J1939Node::boot(Wv58mr::new(Turns::Multi12), &flash.load());
+    let mut now = Instant::ZERO;
+    while let Some(t) = node.next_deadline().filter(|t| *t <= Instant::from_millis(500)) {
+        now = t.max(now);
+        node.poll(now);
+    }
+    while node.next_output().is_some() {}
+    assert_eq!(node.source_address(), Some(EF));
+    // Master BAh asks for the save; master 00h aborts a transfer of its own meanwhile.
+    node.on_frame(&ext(0x1C06_EFBA, &[0x23, 0x10, 0x10, 0x02, b's', b'a', b'v', b'e']), now);
+    let Some(Output::Store(mask)) = node.next_output() else { panic!("no store") };
+    node.on_frame(&ext(0x1C06_EF00, &[0x80, 0, 0, 0, 0, 0, 0, 0]), now);
+    assert_eq!(node.next_output(), None, "a client abort has no answer");
+    flash.save(node.context(), mask).unwrap();
+    node.store_done(Ok(()), now);
+    assert_eq!(
+        node.next_output(),
+        Some(Output::Frame(ext(0x1C05_BAEF, &[0x60, 0x10, 0x10, 0x02, 0, 0, 0, 0]))),
+        "the save's answer goes to BAh"
+    );
+}
+
+/// Found by the power-cut sweep: a parameter flash holding no valid image (zeroed, corrupt)
+/// booted the WV58MR on its defaults without a word, where every device reports it by EMCY
+/// 6300h after its boot-up (D-STO-8). On J1939 it goes out once the claim stood, with 1001h
+/// bit 0, and it is in 1003h.
+#[test]
+fn a_corrupt_parameter_flash_is_reported_by_emcy_6300h_once_the_claim_stood() {
+    use od_core::node::Output;
+    use od_core::storage::Loaded;
+    let table = table_of(Turns::Multi12);
+    let mut flash = ParamFlash::new(RamFlash::from_bytes(vec![0; 4 * 1024]), REGION, identity(table));
+    let loaded = flash.load();
+    assert_eq!(loaded, Loaded::Invalid);
+    let mut node = J1939Node::boot(Wv58mr::new(Turns::Multi12), &loaded);
+    let mut now = Instant::ZERO;
+    let mut sent = Vec::new();
+    while let Some(t) = node.next_deadline().filter(|t| *t <= Instant::from_millis(500)) {
+        now = t.max(now);
+        node.poll(now);
+        while let Some(o) = node.next_output() {
+            if let Output::Frame(f) = o {
+                sent.push((now, f));
+            }
+        }
+    }
+    let stood = sent.iter().find(|(_, f)| raw_id(f) >> 8 & 0x3FFFF == 0xFC5F).expect("EPOS once the claim stood").0;
+    let emcy: Vec<_> = sent.iter().filter(|(_, f)| raw_id(f) == 0x04FC_68EF).collect();
+    assert_eq!(emcy.len(), 1, "{sent:02X?}");
+    assert_eq!(emcy[0].0, stood, "EMCY 6300h when the claim stood");
+    assert_eq!(emcy[0].1.payload(), &[0x00, 0x63, 0x01, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF]);
+    assert_eq!(node.context().od.value(0x1003, 1), Some(0x6300));
+}

@@ -168,6 +168,9 @@ impl<D: J1939Device> J1939Node<D> {
         // Error conditions go out as J1939 EMCY, once the claim stood (D-J1939-20).
         node.ctx.errors.announce_with(announce);
         node.ctx.errors.set_gate(Gate::Drop);
+        // A parameter flash without a valid image raises 6300h at once (D-STO-8); its EMCY goes
+        // out with the conditions still active when the claim has stood.
+        node.ctx.boot_up(Instant::ZERO);
         node.device.on_reset(&mut node.ctx, ResetKind::Node, Instant::ZERO);
         node.claim = AddressClaimer::new(name_of(&node.ctx.od), Address(address), lo, hi);
         node.sync_schedule(Instant::ZERO);
@@ -262,7 +265,9 @@ impl<D: J1939Device> J1939Node<D> {
         let reply = sdo.on_request(data, now, &mut Access { ctx, device, services: &mut NoServices });
         match reply {
             Some(r) => self.ctx.out.send(param::answer(&r, requester, sa)),
-            // A deferred write (1010h "save"): the answer follows the store.
+            // A client abort has no answer, and leaves a waiting save's requester alone.
+            None if data.first().is_some_and(|c| c >> 5 == 4) => {}
+            // A deferred write (1010h "save"): the answer follows the store, to its requester.
             None => self.deferred_to = Some(requester),
         }
         // Only a write (an initiate download, 001b in the command's top bits) can change the

@@ -5,7 +5,8 @@
 //! - a Request for Address Claimed goes to the address claimer
 //!   ([`crate::j1939::claim::AddressClaimer`]), which answers it even while still contending;
 //! - nothing else is answered before the claim has stood (no source address yet), nor a
-//!   request from the null address, nor one to another CA;
+//!   request from the null address or from FFh (no CA's source address), nor one to another
+//!   CA;
 //! - a group the node provides is sent (a broadcast group as usual, a destination-specific one
 //!   to the requester);
 //! - a request to our address for a group we do not provide gets a NACK (PGN 59392, to the
@@ -53,7 +54,7 @@ pub fn respond(id: &Identifier, data: &[u8], own: Option<Address>, provided: &[P
     };
     let requester = id.source();
     let destination = id.destination().unwrap_or(Address::GLOBAL);
-    if requester == Address::NULL || (destination != Address::GLOBAL && destination != own) {
+    if !requester.is_unicast() || (destination != Address::GLOBAL && destination != own) {
         return Response::Ignore;
     }
     if provided.contains(&req.pgn) {
@@ -139,6 +140,15 @@ mod tests {
         assert_eq!(run(0x80, 0x00, 64607, OWN), Response::Ignore);
         assert_eq!(run(0x80, 0x00, 0xFEEE, OWN), Response::Ignore);
         assert_eq!(run(0xEF, 0xFE, 0xFEEE, OWN), Response::Ignore);
+    }
+
+    /// Found by the J1939 invariant proptest: a request "from" FFh, the global address, which no
+    /// CA can send from, was NACKed as if FFh were a requester.
+    #[test]
+    fn a_request_from_the_global_address_is_not_answered() {
+        assert_eq!(run(0xEF, 0xFF, 0xFEEE, OWN), Response::Ignore);
+        assert_eq!(run(0xEF, 0xFF, 1280, OWN), Response::Ignore);
+        assert_eq!(run(0xFF, 0xFF, 64607, OWN), Response::Ignore);
     }
 
     #[test]
