@@ -216,11 +216,17 @@ impl<D: J1939Device> J1939Node<D> {
     #[inline]
     pub fn on_frame(&mut self, frame: &Frame, now: Instant) {
         // A message for another node (PDU1, PF below F0h, with a destination that is neither
-        // ours nor global) matters only if it is an address claim (PF EEh), which every claimer
-        // must see: read off the raw identifier, before any parsing.
+        // ours nor global) matters only if it is an address claim (PF EEh) or a request (PF
+        // EAh: a Request for Address Claimed to the address being claimed is the claimer's),
+        // which the claimer judges: read off the raw identifier, before any parsing.
         if let CanId::Ext(raw) = frame.id {
             let (pf, da) = ((raw >> 16) as u8, (raw >> 8) as u8);
-            if pf < 0xF0 && pf != 0xEE && da != Address::GLOBAL.0 && Some(Address(da)) != self.claim.source_address() {
+            if pf < 0xF0
+                && pf != 0xEE
+                && pf != 0xEA
+                && da != Address::GLOBAL.0
+                && Some(Address(da)) != self.claim.source_address()
+            {
                 return;
             }
         }
