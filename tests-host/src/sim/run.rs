@@ -293,11 +293,7 @@ impl TextQueue {
         }
         q.bytes += text.len();
         q.items.push_back(Item::Text(text));
-        // The writer waits only on an empty queue: waking it for every frame (a system call
-        // per frame and client) was most of the main loop's time with 200 clients.
-        if q.items.len() == 1 {
-            self.changed.notify_all();
-        }
+        self.changed.notify_all();
         Some(true)
     }
 
@@ -330,17 +326,16 @@ impl TextQueue {
         self.changed.notify_all();
     }
 
-    /// Everything queued, in order, once there is something; `None` once closed and empty.
-    /// The writer sends a batch while the queue fills again: at most twice the bound is in
-    /// the simulator per client (a batch being written, a full queue).
-    fn take_all(&self) -> Option<VecDeque<Item>> {
+    /// The next item; `None` once closed and empty.
+    fn pop(&self) -> Option<Item> {
         let mut q = self.lock();
         loop {
-            if !q.items.is_empty() {
-                let items = std::mem::take(&mut q.items);
-                q.bytes = 0;
+            if let Some(item) = q.items.pop_front() {
+                if let Item::Text(t) = &item {
+                    q.bytes -= t.len();
+                }
                 self.changed.notify_all();
-                return Some(items);
+                return Some(item);
             }
             if q.closed {
                 return None;
@@ -808,27 +803,16 @@ fn serve(id: usize, stream: TcpStream, names: &[String], tx: SyncSender<Event>) 
     let out = Arc::new(TextQueue::new());
     let queue = out.clone();
     thread::spawn(move || {
-        // Each batch goes out in as few writes as its pauses allow.
-        let mut text = String::new();
-        'batches: while let Some(items) = queue.take_all() {
-            for item in items {
-                match item {
-                    Item::Text(t) => text.push_str(&t),
-                    Item::Pause => {
-                        if !text.is_empty() && writer.write_all(text.as_bytes()).is_err() {
-                            queue.abandon();
-                            break 'batches;
-                        }
-                        text.clear();
-                        thread::sleep(Duration::from_millis(50));
+        while let Some(item) = queue.pop() {
+            match item {
+                Item::Pause => thread::sleep(Duration::from_millis(50)),
+                Item::Text(t) => {
+                    if writer.write_all(t.as_bytes()).is_err() {
+                        queue.abandon();
+                        break;
                     }
                 }
             }
-            if !text.is_empty() && writer.write_all(text.as_bytes()).is_err() {
-                queue.abandon();
-                break;
-            }
-            text.clear();
         }
         let _ = writer.shutdown(std::net::Shutdown::Both);
     });
