@@ -34,6 +34,10 @@ use crate::segment::Segment;
 
 /// Frames one client may have waiting for its bus; beyond them its reader stops reading.
 pub const CLIENT_FRAMES: usize = 32;
+/// How long a writer that fell behind waits before its next batch.
+const BATCH: Duration = Duration::from_millis(10);
+/// A batch this long (messages) means the writer fell behind.
+const BEHIND: usize = 4;
 /// Bytes of messages waiting for one client at most (about two seconds of a full 1 Mbit/s
 /// bus); a client that does not read loses the frames beyond them.
 pub const CLIENT_BYTES: usize = 256 * 1024;
@@ -293,7 +297,11 @@ impl TextQueue {
         }
         q.bytes += text.len();
         q.items.push_back(Item::Text(text));
-        self.changed.notify_all();
+        // The writer waits only on an empty queue: waking it for every frame (a system call
+        // per frame and client) was most of the main loop's time with 200 clients.
+        if q.items.len() == 1 {
+            self.changed.notify_all();
+        }
         Some(true)
     }
 
@@ -326,16 +334,17 @@ impl TextQueue {
         self.changed.notify_all();
     }
 
-    /// The next item; `None` once closed and empty.
-    fn pop(&self) -> Option<Item> {
+    /// Everything queued, in order, once there is something; `None` once closed and empty.
+    /// The writer sends a batch while the queue fills again: at most twice the bound is in
+    /// the simulator per client (a batch being written, a full queue).
+    fn take_all(&self) -> Option<VecDeque<Item>> {
         let mut q = self.lock();
         loop {
-            if let Some(item) = q.items.pop_front() {
-                if let Item::Text(t) = &item {
-                    q.bytes -= t.len();
-                }
+            if !q.items.is_empty() {
+                let items = std::mem::take(&mut q.items);
+                q.bytes = 0;
                 self.changed.notify_all();
-                return Some(item);
+                return Some(items);
             }
             if q.closed {
                 return None;
@@ -803,16 +812,38 @@ fn serve(id: usize, stream: TcpStream, names: &[String], tx: SyncSender<Event>) 
     let out = Arc::new(TextQueue::new());
     let queue = out.clone();
     thread::spawn(move || {
-        while let Some(item) = queue.pop() {
-            match item {
-                Item::Pause => thread::sleep(Duration::from_millis(50)),
-                Item::Text(t) => {
-                    if writer.write_all(t.as_bytes()).is_err() {
-                        queue.abandon();
-                        break;
+        // Each batch goes out in as few writes as its pauses allow. A writer that fell behind
+        // (its last batch was long: a flood) waits BATCH before the next, so that a flood
+        // reaches each of many clients in a write every BATCH rather than a write and a thread
+        // wake-up per frame (with 200 clients the writers' wake-ups had starved the main loop:
+        // 200 of 8,000 frames/s carried); a client that keeps up gets every batch at once.
+        let mut text = String::new();
+        let mut behind = false;
+        'batches: while let Some(items) = {
+            if behind {
+                thread::sleep(BATCH);
+            }
+            queue.take_all()
+        } {
+            behind = items.len() >= BEHIND;
+            for item in items {
+                match item {
+                    Item::Text(t) => text.push_str(&t),
+                    Item::Pause => {
+                        if !text.is_empty() && writer.write_all(text.as_bytes()).is_err() {
+                            queue.abandon();
+                            break 'batches;
+                        }
+                        text.clear();
+                        thread::sleep(Duration::from_millis(50));
                     }
                 }
             }
+            if !text.is_empty() && writer.write_all(text.as_bytes()).is_err() {
+                queue.abandon();
+                break;
+            }
+            text.clear();
         }
         let _ = writer.shutdown(std::net::Shutdown::Both);
     });
