@@ -39,6 +39,13 @@ pub struct DeviceRequests {
     pub pre_operational: bool,
 }
 
+/// The bit rate the pending bit-rate entry (5F0Ah.02 and alike) selects, if `device` has one
+/// that codes a rate: what a node of either transport joins the bus at.
+pub(crate) fn pending_bitrate<D: Device>(device: &D, od: &crate::od::Od) -> Option<Bitrate> {
+    let code = crate::storage::pending(od, CoreHook::PendingBitrate)?;
+    device.bitrate_codes().iter().find(|(c, _)| *c == code).map(|(_, b)| *b)
+}
+
 /// The transport-neutral part of a device.
 pub trait Device {
     /// The device's dictionary, sorted by (index, sub).

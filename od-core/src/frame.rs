@@ -28,6 +28,17 @@ impl CanId {
         }
     }
 
+    /// The identifier whose [`CanId::key`] is `key`; `None` for `u32::MAX` (no identifier).
+    pub const fn from_key(key: u32) -> Option<CanId> {
+        if key == u32::MAX {
+            None
+        } else if key & 1 << 31 != 0 {
+            Some(CanId::Ext(key & 0x1FFF_FFFF))
+        } else {
+            Some(CanId::Std(key as u16))
+        }
+    }
+
     /// The identifier a CANopen COB-ID entry (1005h, 1014h, 18xxh.01 ...) designates:
     /// bit 29 selects the 29-bit format, the low bits are the identifier.
     pub const fn from_cob_id(cob_id: u32) -> CanId {
@@ -169,6 +180,15 @@ impl Frame {
 #[cfg(test)]
 mod tests {
     use super::CanId;
+
+    #[test]
+    fn keys_round_trip() {
+        for id in [CanId::Std(0), CanId::Std(0x7FF), CanId::Ext(0), CanId::Ext(0x1FFF_FFFF), CanId::Ext(0x80)] {
+            assert_eq!(CanId::from_key(id.key()), Some(id));
+        }
+        assert_ne!(CanId::Std(0x80).key(), CanId::Ext(0x80).key());
+        assert_eq!(CanId::from_key(u32::MAX), None);
+    }
 
     #[test]
     fn restricted_ids_follow_cia_301_table_70() {

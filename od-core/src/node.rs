@@ -13,18 +13,19 @@ use crate::access::{self, Access, Services};
 use crate::autobaud::Scan;
 use crate::bitrate::Bitrate;
 use crate::context::Written;
+use crate::device::pending_bitrate;
 use crate::emcy;
 use crate::frame::{CanId, Frame, RxFilter, RxId};
 use crate::guarding::Guarding;
 use crate::heartbeat::Heartbeat;
 use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
-use crate::od::{CoreHook, Group, Hook, Od};
+use crate::od::{CoreHook, Group, Hook};
 use crate::pdo::{self, PdoEvent, Pdos, RtrAnswer, RtrReply};
 use crate::sdo::SdoServer;
 use crate::shell::{DeviceStation, Station};
 use crate::storage::{self, Image, Loaded, Record};
-use crate::time::{earliest, Instant};
+use crate::time::{earliest, Due, Instant};
 use crate::wire::nmt::{self as nmt_wire, ErrorControl};
 
 /// The context under its former name.
@@ -51,7 +52,7 @@ pub struct Node<D: CanopenDevice> {
     /// [`Node::next_deadline`] as the last poll left it, while nothing else has touched the
     /// node since (`None`: something has, compute it afresh). A poll before it has nothing to
     /// do (issue 14's W4, the firmware's idle tick).
-    due: Option<Option<Instant>>,
+    due: Due,
 }
 
 /// The CANopen services whose rules the dictionary access path applies to their entries,
@@ -165,7 +166,7 @@ impl<D: CanopenDevice> Node<D> {
             lss,
             scan,
             filter: (RxFilter::OPEN, 0),
-            due: None,
+            due: Due::default(),
         };
         node.filter = (RxFilter::new(&node.rx_ids()), node.rx_ids_generation());
         node.notify();
@@ -189,7 +190,7 @@ impl<D: CanopenDevice> Node<D> {
 
     /// The device and the context together, for the shell's sensor samples and key presses.
     pub fn split(&mut self) -> (&mut D, &mut Context) {
-        self.due = None;
+        self.due.forget();
         (&mut self.device, &mut self.ctx)
     }
 
@@ -277,7 +278,7 @@ impl<D: CanopenDevice> Node<D> {
     #[cold]
     #[inline(never)]
     fn on_scan_frame(&mut self) {
-        self.due = None;
+        self.due.forget();
         if let Some(scan) = self.scan.take() {
             let rate = scan.rate();
             self.ctx.bitrate = rate;
@@ -297,7 +298,7 @@ impl<D: CanopenDevice> Node<D> {
     /// A frame on the receive list (or one the quick filter could not tell from it).
     #[inline(never)]
     fn dispatch(&mut self, frame: &Frame, now: Instant) {
-        self.due = None;
+        self.due.forget();
         // One number per identifier (`CanId::key`): each test below is one compare.
         let key = frame.id.key();
         // LSS works in every NMT state and without a node-ID (CiA 305).
@@ -371,7 +372,7 @@ impl<D: CanopenDevice> Node<D> {
     /// raises or clears its EMCYs. EMCYs raised while the node cannot send (bus-off, STOPPED)
     /// follow the EMCY producer's rules.
     pub fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
-        self.due = None;
+        self.due.forget();
         self.device.on_bus_event(&mut self.ctx, event, now);
     }
 
@@ -380,13 +381,11 @@ impl<D: CanopenDevice> Node<D> {
     pub fn poll(&mut self, now: Instant) {
         // Nothing has touched the node since the last poll, and its next deadline is later:
         // nothing to do.
-        if let Some(due) = self.due {
-            if due.is_none_or(|d| now < d) {
-                return;
-            }
+        if self.due.nothing_at(now) {
+            return;
         }
         self.poll_all(now);
-        self.due = Some(self.deadline());
+        self.due.remember(self.deadline());
     }
 
     #[inline(never)]
@@ -453,10 +452,7 @@ impl<D: CanopenDevice> Node<D> {
     /// does nothing.
     #[inline]
     pub fn next_deadline(&self) -> Option<Instant> {
-        match self.due {
-            Some(due) => due,
-            None => self.deadline(),
-        }
+        self.due.get(|| self.deadline())
     }
 
     #[inline(never)]
@@ -514,7 +510,7 @@ impl<D: CanopenDevice> Node<D> {
     /// The shell has finished (or failed) the [`Output::Store`] it was given.
     /// The result goes to whoever asked: LSS store configuration, else the SDO server (1010h).
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
-        self.due = None;
+        self.due.forget();
         self.ctx.store_done(result.is_ok(), now);
         if self.lss.store_done(&mut self.ctx, result.is_ok()) {
             return;
@@ -628,7 +624,7 @@ impl<D: CanopenDevice> Node<D> {
     /// for a device's own user interface and for tests. Nothing changes on `Err`. A 1010h save
     /// answers `Written::Deferred` and completes at [`Node::store_done`].
     pub fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
-        self.due = None;
+        self.due.forget();
         let Node { ctx, device, nmt, heartbeat, guarding, pdo, lss, .. } = self;
         let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
         access::write(ctx, device, &mut services, index, sub, data, now)
@@ -637,7 +633,7 @@ impl<D: CanopenDevice> Node<D> {
     /// Test access to the parts (a service's state beside the context).
     #[cfg(test)]
     pub(crate) fn parts(&mut self) -> (&mut Context, &mut NmtState, &mut Pdos) {
-        self.due = None;
+        self.due.forget();
         (&mut self.ctx, &mut self.nmt, &mut self.pdo)
     }
 }
@@ -654,12 +650,6 @@ fn sdo_cob_ids(ctx: &mut Context) {
             ctx.od.set(pos, e.default_value(id));
         }
     }
-}
-
-/// The bit rate the pending bit-rate entry selects, if the device has one that codes a rate.
-fn pending_bitrate<D: Device>(device: &D, od: &Od) -> Option<Bitrate> {
-    let code = storage::pending(od, CoreHook::PendingBitrate)?;
-    device.bitrate_codes().iter().find(|(c, _)| *c == code).map(|(_, b)| *b)
 }
 
 impl<D: CanopenDevice> Station for Node<D> {
@@ -868,9 +858,9 @@ mod tests {
                         b.on_bus_event(e, now);
                     }
                     _ => {
-                        skipped += a.due.is_some_and(|d| d.is_none_or(|d| now < d)) as u32;
+                        skipped += a.due.nothing_at(now) as u32;
                         a.poll(now);
-                        b.due = None;
+                        b.due.forget();
                         b.poll(now);
                     }
                 }

@@ -236,9 +236,8 @@ impl Rpdo {
 /// PDO and SYNC state: the resolved configuration, counters and timers.
 #[derive(Clone)]
 pub struct Pdos {
-    /// SYNC identifier (1005h), if the node consumes SYNC.
-    sync: Option<CanId>,
-    /// [`CanId::key`] of `sync`, `u32::MAX` without one.
+    /// [`CanId::key`] of the SYNC identifier (1005h), `u32::MAX` when the node consumes no
+    /// SYNC: one compare per frame ([`Pdos::is_sync`]).
     sync_key: u32,
     /// The TPDOs a SYNC concerns (valid, mapped, type 1..=240 or FCh), one bit each: a SYNC
     /// visits only them. Kept by [`Pdos::reset`] and [`Pdos::on_write`], which alone change
@@ -259,7 +258,6 @@ pub struct Pdos {
 impl Default for Pdos {
     fn default() -> Pdos {
         Pdos {
-            sync: None,
             sync_key: u32::MAX,
             sync_tx: 0,
             tpdo: [Tpdo::EMPTY; MAX_TPDOS],
@@ -295,7 +293,7 @@ impl Pdos {
                 let _ = out.push(id);
             }
         };
-        if let Some(id) = self.sync {
+        if let Some(id) = self.sync_id() {
             push(RxId::data(id));
         }
         for r in self.rpdos().iter().filter(|r| r.valid) {
@@ -318,7 +316,6 @@ impl Pdos {
     }
 
     fn set_sync(&mut self, id: Option<CanId>) {
-        self.sync = id;
         self.sync_key = id.map_or(u32::MAX, CanId::key);
     }
 
@@ -331,7 +328,7 @@ impl Pdos {
     /// The SYNC identifier (1005h), if the node has one.
     #[inline]
     pub fn sync_id(&self) -> Option<CanId> {
-        self.sync
+        CanId::from_key(self.sync_key)
     }
 
     fn tpdos(&self) -> &[Tpdo] {
@@ -641,7 +638,7 @@ impl Pdos {
             return Err(Abort::INVALID_VALUE);
         }
         let id = checked_id(value, true)?;
-        if self.sync != Some(id) {
+        if self.sync_id() != Some(id) {
             self.set_sync(Some(id));
             self.touch_rx_ids();
         }

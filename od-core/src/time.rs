@@ -27,21 +27,11 @@ impl Instant {
         self.0
     }
 
-    /// Microseconds since the origin modulo `period_us` (below 2^21, about 2 s; a constant
-    /// of the caller's): the phase of a periodic pattern such as a blinking LED, in 32-bit
-    /// arithmetic. A 64-bit remainder is a library routine of about 1 KiB on the Cortex-M3.
+    /// Microseconds since the origin modulo `period_us` (0 for 0): the phase of a periodic
+    /// pattern such as a blinking LED, without a 64-bit division ([`crate::arith::rem_u64`]).
+    #[inline]
     pub const fn phase(self, period_us: u32) -> u32 {
-        assert!(period_us > 0 && period_us < 1 << 21, "phase period out of range");
-        // Horner over 11-bit limbs from the top 9 bits down: the remainder stays below 2^21,
-        // so shifting in 11 more bits stays below 2^32.
-        let t = self.0;
-        let mut r = (t >> 55) as u32 % period_us;
-        let mut shift = 55;
-        while shift > 0 {
-            shift -= 11;
-            r = ((r << 11) | ((t >> shift) & 0x7FF) as u32) % period_us;
-        }
-        r
+        crate::arith::rem_u64(self.0, period_us)
     }
 
     /// Whole milliseconds since the origin.
@@ -154,6 +144,38 @@ pub fn earliest(a: Option<Instant>, b: Option<Instant>) -> Option<Instant> {
         (Some(x), Some(y)) => Some(if x <= y { x } else { y }),
         (x, None) => x,
         (None, y) => y,
+    }
+}
+
+/// The next deadline a node's poll left, remembered until anything else touches the node
+/// (D-ARCH-5): a poll before it has nothing to do. Every call that changes the node but its
+/// poll [`Due::forget`]s it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Due(Option<Option<Instant>>);
+
+impl Due {
+    /// Something touched the node: the next deadline is computed afresh.
+    #[inline]
+    pub fn forget(&mut self) {
+        self.0 = None;
+    }
+
+    /// Remembers the deadline a poll has just left.
+    #[inline]
+    pub fn remember(&mut self, deadline: Option<Instant>) {
+        self.0 = Some(deadline);
+    }
+
+    /// Is nothing due at `now` (a remembered deadline, later than `now` or none)?
+    #[inline]
+    pub fn nothing_at(&self, now: Instant) -> bool {
+        matches!(self.0, Some(due) if due.is_none_or(|d| now < d))
+    }
+
+    /// The remembered deadline, else `compute`'s.
+    #[inline]
+    pub fn get(&self, compute: impl FnOnce() -> Option<Instant>) -> Option<Instant> {
+        self.0.unwrap_or_else(compute)
     }
 }
 

@@ -350,17 +350,9 @@ fn heartbeat_1000() -> Frame {
     Frame::std(0x600 + NODE_ID as u16, &[0x2B, 0x17, 0x10, 0x00, 0xE8, 0x03, 0x00, 0x00])
 }
 
-/// Hands `frame` to the node `n` times, taking one output after each; how many were frames.
+/// Hands `frame` to the node `n` times at [`NOW`], taking one output after each; how many were frames.
 fn answers<S: Station>(node: &mut S, frame: &Frame, n: u64) -> u64 {
-    let mut frames = 0;
-    for _ in 0..n {
-        black_box(&mut *node).on_frame(black_box(frame), black_box(NOW));
-        if let Some(Output::Frame(f)) = black_box(&mut *node).next_output() {
-            black_box(f);
-            frames += 1;
-        }
-    }
-    frames
+    answers_at(node, frame, NOW, n)
 }
 
 /// Flips the lowest bit of the value at `pos` (W6: a value for the next save to store).

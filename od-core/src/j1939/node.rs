@@ -27,6 +27,7 @@ use crate::abort::Abort;
 use crate::access::{Access, NoServices};
 use crate::bitrate::Bitrate;
 use crate::context::{BusEvent, Context, Output, ResetKind};
+use crate::device::pending_bitrate;
 use crate::device::Device;
 use crate::errors::Gate;
 use crate::frame::{CanId, Frame};
@@ -40,7 +41,7 @@ use crate::od::{CoreHook, Od};
 use crate::sdo::SdoServer;
 use crate::shell::{DeviceStation, RxIds, RxMasks, Station};
 use crate::storage::{self, Loaded};
-use crate::time::{earliest, Instant};
+use crate::time::{earliest, Due, Instant};
 use crate::wire::j1939::{Address, Emcy, Epos, Espd, Identifier, Name, NameFields, Pgn, Priority, ProprietaryB};
 
 /// The EMCY group's priority (manual §5.6: 1, fixed).
@@ -131,7 +132,7 @@ pub struct J1939Node<D: J1939Device> {
     pgn_pos: [(Option<u8>, Option<u8>); 3],
     /// [`J1939Node::next_deadline`] as the last poll left it, while nothing else has touched
     /// the node since (`None`: something has): a poll before it has nothing to do.
-    due: Option<Option<Instant>>,
+    due: Due,
 }
 
 impl<D: J1939Device> J1939Node<D> {
@@ -160,7 +161,7 @@ impl<D: J1939Device> J1939Node<D> {
             warning: false,
             passive: false,
             generation: 0,
-            due: None,
+            due: Due::default(),
             pgn_pos: [(None, None); 3],
         };
         let at = |sub| node.ctx.od.pos(0x3000, sub).map(|p| p as u8);
@@ -239,7 +240,7 @@ impl<D: J1939Device> J1939Node<D> {
         let Ok(id) = Identifier::from_frame(frame) else {
             return;
         };
-        self.due = None;
+        self.due.forget();
         let data = frame.payload();
         if id.pgn() == Pgn::ADDRESS_CLAIMED || id.pgn() == Pgn::REQUEST {
             if let Some(f) = self.claim.on_message(&id, data, now) {
@@ -290,7 +291,7 @@ impl<D: J1939Device> J1939Node<D> {
 
     /// The CAN controller reported `event`: the LEDs and the device's diagnosis follow.
     pub fn on_bus_event(&mut self, event: BusEvent, now: Instant) {
-        self.due = None;
+        self.due.forget();
         match event {
             BusEvent::ErrorPassive => self.passive = true,
             BusEvent::ErrorActive => self.passive = false,
@@ -310,13 +311,11 @@ impl<D: J1939Device> J1939Node<D> {
     #[inline]
     pub fn poll(&mut self, now: Instant) {
         // Nothing has touched the node since the last poll, and its next deadline is later.
-        if let Some(due) = self.due {
-            if due.is_none_or(|d| now < d) {
-                return;
-            }
+        if self.due.nothing_at(now) {
+            return;
         }
         self.poll_all(now);
-        self.due = Some(self.deadline());
+        self.due.remember(self.deadline());
     }
 
     #[inline(never)]
@@ -347,10 +346,7 @@ impl<D: J1939Device> J1939Node<D> {
     /// When [`J1939Node::poll`] must next run; a poll before it does nothing.
     #[inline]
     pub fn next_deadline(&self) -> Option<Instant> {
-        match self.due {
-            Some(due) => due,
-            None => self.deadline(),
-        }
+        self.due.get(|| self.deadline())
     }
 
     fn deadline(&self) -> Option<Instant> {
@@ -371,7 +367,7 @@ impl<D: J1939Device> J1939Node<D> {
     /// The shell has finished (`Ok`) or failed the [`Output::Store`] it was given: the CAM11
     /// answer to the 1010h write goes out now.
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
-        self.due = None;
+        self.due.forget();
         self.ctx.store_done(result.is_ok(), now);
         let reply = self.sdo.complete_deferred(result.map_err(|()| Abort::CANNOT_STORE));
         if let (Some(r), Some(rq), Some(sa)) = (reply, self.deferred_to.take(), self.claim.source_address()) {
@@ -482,12 +478,6 @@ fn emcy_frame(code: u16, register: u8, sa: Address) -> Frame {
     }
 }
 
-/// The bit rate the pending bit-rate entry selects, if the device has one that codes a rate.
-fn pending_bitrate<D: Device>(device: &D, od: &Od) -> Option<Bitrate> {
-    let code = storage::pending(od, CoreHook::PendingBitrate)?;
-    device.bitrate_codes().iter().find(|(c, _)| *c == code).map(|(_, b)| *b)
-}
-
 impl<D: J1939Device> Station for J1939Node<D> {
     fn on_frame(&mut self, frame: &Frame, now: Instant) {
         J1939Node::on_frame(self, frame, now)
@@ -536,7 +526,7 @@ impl<D: J1939Device> DeviceStation for J1939Node<D> {
         &self.device
     }
     fn split(&mut self) -> (&mut D, &mut Context) {
-        self.due = None;
+        self.due.forget();
         (&mut self.device, &mut self.ctx)
     }
 }
@@ -607,9 +597,9 @@ mod tests {
                         b.on_bus_event(e, now);
                     }
                     _ => {
-                        skipped += a.due.is_some_and(|d| d.is_none_or(|d| now < d)) as u32;
+                        skipped += a.due.nothing_at(now) as u32;
                         a.poll(now);
-                        b.due = None;
+                        b.due.forget();
                         b.poll(now);
                     }
                 }

@@ -124,7 +124,7 @@ fn boot_reads_the_configuration() {
     let n = node(false);
     let p = n.pdos();
     assert_eq!((p.ntpdo, p.nrpdo), (2, 2));
-    assert_eq!(p.sync, Some(CanId::Std(0x80)));
+    assert_eq!(p.sync_id(), Some(CanId::Std(0x80)));
     assert_eq!(p.tpdo[0].id, CanId::Std(0x185));
     assert!(p.tpdo[0].params.asynchronous && !p.tpdo[1].params.asynchronous);
     assert_eq!(p.tpdo[0].map.len, 6);
@@ -223,7 +223,7 @@ fn sync_cob_id_rules() {
     // Bit 31 ignored, 29-bit allowed.
     assert_eq!(write(&mut n, 0x1005, 0, 0x8000_0081, at(0)), Ok(()));
     assert_ne!(n.rx_ids_generation(), g);
-    assert_eq!(n.pdos().sync, Some(CanId::Std(0x81)));
+    assert_eq!(n.pdos().sync_id(), Some(CanId::Std(0x81)));
     n.on_frame(&Frame::std(0, &[0x01, 0x05]), at(0));
     assert!(sync(&mut n, at(1)).is_empty());
     n.on_frame(&Frame::std(0x81, &[]), at(1));
@@ -540,7 +540,7 @@ mod model {
             for (a, b) in kept.rpdos().iter().zip(pdo.rpdos()) {
                 prop_assert_eq!((a.id, a.valid, a.ttype, a.map), (b.id, b.valid, b.ttype, b.map));
             }
-            prop_assert_eq!(kept.sync, pdo.sync);
+            prop_assert_eq!(kept.sync_id(), pdo.sync_id());
         }
     }
 }
