@@ -40,6 +40,54 @@ pub const fn rem_euclid(x: i64, m: u32) -> u32 {
     }
 }
 
+/// `a × b`, saturating at `u64::MAX`: two 32 × 32-bit multiplications (a 64 × 64-bit one
+/// that checks its overflow is much larger on the Cortex-M3).
+pub const fn mul_sat(a: u64, b: u32) -> u64 {
+    let lo = (a as u32 as u64) * b as u64;
+    let hi = ((a >> 32) as u32 as u64) * b as u64;
+    if hi > u32::MAX as u64 {
+        return u64::MAX;
+    }
+    lo.saturating_add(hi << 32)
+}
+
+/// `n / d` for unsigned 64-bit numbers (`u64::MAX` for `d == 0`): the M3's 32-bit division
+/// when both fit 32 bits, else binary long division from the numerator's top bit, so the
+/// library's 64-bit division (about 1 KiB on the Cortex-M3) is not linked.
+pub const fn div_u64(n: u64, d: u64) -> u64 {
+    if d == 0 {
+        return u64::MAX;
+    }
+    if n < d {
+        return 0;
+    }
+    if n <= u32::MAX as u64 {
+        // d <= n: both fit.
+        return (n as u32 / d as u32) as u64;
+    }
+    if d > u64::MAX >> 1 {
+        // d <= n < 2d.
+        return 1;
+    }
+    // The numerator's bits move from `n` into the remainder, the quotient's bits in behind
+    // them: shifts by one only, which the M3 does in two instructions (a shift by a variable
+    // count of a 64-bit number is a library call).
+    let mut n = n;
+    let mut r = 0u64;
+    let mut i = 0;
+    while i < 64 {
+        // r < d < 2^63: the shifted remainder fits.
+        r = (r << 1) | (n >> 63);
+        n <<= 1;
+        if r >= d {
+            r -= d;
+            n |= 1;
+        }
+        i += 1;
+    }
+    n
+}
+
 /// `n / d` for unsigned 128-bit numbers with `d` below 2^127 (`u128::MAX` for `d == 0`):
 /// binary long division from the numerator's top bit. The library's 128-bit division is over
 /// 1 KiB on the Cortex-M3; this is a few dozen bytes, and the callers (a speed once per
@@ -83,6 +131,25 @@ mod tests {
         }
         assert_eq!(rem_euclid(i64::MIN, 7) as i64, i64::MIN.rem_euclid(7));
         assert_eq!(rem_u64(5, 0), 0);
+    }
+
+    #[test]
+    fn quotients_equal_the_64_bit_ones() {
+        let mut x = 0x0123_4567_89AB_CDEFu64;
+        for _ in 0..50_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            for n in [x, x >> 20, x >> 33, x >> 50, u64::MAX] {
+                for d in [1u64, 3, 1000, (x >> 40) | 1, (x >> 20) | 1, (x >> 1) | 1, x | 1 << 63, u64::MAX] {
+                    assert_eq!(div_u64(n, d), n / d, "{n} / {d}");
+                }
+            }
+        }
+        assert_eq!(div_u64(7, 0), u64::MAX);
+        for a in [0, 1, u32::MAX as u64, u32::MAX as u64 + 1, 1 << 40, u64::MAX / 3, u64::MAX] {
+            for b in [0, 1, 3, 100, u32::MAX] {
+                assert_eq!(mul_sat(a, b), a.saturating_mul(b as u64), "{a} × {b}");
+            }
+        }
     }
 
     #[test]

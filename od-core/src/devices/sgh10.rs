@@ -10,7 +10,7 @@ use crate::abort::Abort;
 use crate::context::{BusEvent, Context as Core, ResetKind};
 use crate::device::{CanopenDevice, Device, Link};
 use crate::devices::comm::{self, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
-use crate::encoder::linear::{Linear, LinearSpec};
+use crate::encoder::linear::{Entries, Linear, LinearSpec};
 use crate::encoder::{Encoder, SensorFault, CYCLE_TIMER_LINK};
 use crate::od::{Access::*, DataType::*, Entry, Group, Hook};
 use crate::time::Instant;
@@ -124,6 +124,7 @@ pub const SPEC: LinearSpec = LinearSpec {
     speed_error: true,
     integration_us: 100_000,
     sample_period_us: 1_000,
+    entries: Entries::of(&ROWS),
 };
 
 /// The product variants of the manual; it describes no difference in behaviour or dictionary.

@@ -15,7 +15,7 @@ use crate::abort::Abort;
 use crate::context::{BusEvent, Context as Core, ResetKind};
 use crate::device::{CanopenDevice, Device, Link};
 use crate::devices::comm::{self, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
-use crate::encoder::linear::{Linear, LinearSpec};
+use crate::encoder::linear::{Entries, Linear, LinearSpec};
 use crate::encoder::{Encoder, SensorFault, CYCLE_TIMER_LINK};
 use crate::od::{Access::*, DataType::*, Entry, Group, Hook};
 use crate::time::Instant;
@@ -155,6 +155,7 @@ pub const SPEC: LinearSpec = LinearSpec {
     speed_error: false,
     integration_us: 100_000,
     sample_period_us: 1_000,
+    entries: Entries::of(&TABLE_1),
 };
 
 /// Which of the redundant version's two encoders.

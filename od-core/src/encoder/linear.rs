@@ -26,9 +26,10 @@
 use crate::abort::Abort;
 use crate::context::{BusEvent, CanError, Context as Core, ResetKind};
 use crate::encoder::{
-    alarms, operating_status, warnings, Condition, EmcyConditions, SensorFault, SpeedEstimator, WorkAreas,
+    alarms, area_state, operating_status, position as at, warnings, Condition, EmcyConditions, SensorFault,
+    SpeedEstimator, WorkAreas,
 };
-use crate::od::Od;
+use crate::od::{Entry, Od};
 use crate::time::Instant;
 
 /// Device-specific write hooks of the linear encoders (`Hook::Device(n)`).
@@ -120,10 +121,99 @@ pub const fn calibration_offset(measured: i64, calibration_value: i64) -> i64 {
 }
 
 /// The speed value (6030h.01 units, 6005h.02 × 0.01 mm/s) of a window of `delta` steps of
-/// `resolution_nm` over `elapsed_us`. Not saturated.
+/// `resolution_nm` over `elapsed_us`, rounded to nearest (halves away from zero). Not
+/// saturated.
+///
+/// [`crate::encoder::Window::rate`]`(resolution_nm, speed_step × 10000)` in 64 bits: `delta ×
+/// res × 10^6 / (elapsed × step × 10^4)` is `delta × res × 100 / (elapsed × step)`, the same
+/// number, so the same rounding. Exact while `|delta| × resolution_nm` stays below 2^56,
+/// which a linear encoder's window always does (its steps times the resolution are at most
+/// 1000 times a 32-bit reading in µm, below 2^42); larger products saturate.
 pub fn speed_value(window: crate::encoder::Window, resolution_nm: u32, speed_step: u32) -> i64 {
-    // steps × res nm / (speed_step × 10 µm/s) per second.
-    window.rate(resolution_nm as i64, speed_step.max(1) as i64 * 10_000)
+    use crate::arith::{div_u64, mul_sat};
+    let n = mul_sat(mul_sat(window.delta.unsigned_abs(), resolution_nm), 100);
+    let d = mul_sat(window.elapsed_us, speed_step.max(1));
+    let q = div_u64(n.saturating_add(d / 2), d).min(i64::MAX as u64) as i64;
+    if window.delta < 0 {
+        -q
+    } else {
+        q
+    }
+}
+
+/// Where the linear encoder's objects sit in its device's table ([`Entries::of`], resolved
+/// when the table is declared), so the per-sample path reads and writes them without a lookup.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Entries {
+    /// 6000h operating parameters.
+    pub operating: u8,
+    /// 6005h.01 position step setting (nm).
+    pub resolution: u8,
+    /// 6005h.02 speed step setting.
+    pub speed_step: u8,
+    /// 6010h.01 calibration value.
+    pub calibration: u8,
+    /// 6020h.01 position value.
+    pub position: u8,
+    /// 6030h.01 speed value.
+    pub speed: u8,
+    /// 6200h cyclic timer.
+    pub cycle_timer: u8,
+    /// 1800h.05 TPDO1 event timer.
+    pub event_timer: u8,
+    /// 6400h.01/.02 work-area states.
+    pub area_state: [u8; 2],
+    /// 6401h.01/.02 work-area low limits.
+    pub area_low: [u8; 2],
+    /// 6402h.01/.02 work-area high limits.
+    pub area_high: [u8; 2],
+    /// 6500h operating status.
+    pub status: u8,
+    /// 6503h alarms.
+    pub alarms: u8,
+    /// 6504h supported alarms.
+    pub supported_alarms: u8,
+    /// 6505h warnings.
+    pub warnings: u8,
+    /// 6506h supported warnings.
+    pub supported_warnings: u8,
+    /// 6509h offset value.
+    pub offset: u8,
+    /// 650Ch.01 offset value channel 1.
+    pub offset_1: u8,
+    /// 5000h CAN diagnosis.
+    pub diagnosis: u8,
+    /// 1002h manufacturer status register (the error counters).
+    pub counters: u8,
+}
+
+impl Entries {
+    /// The positions in `table`, which must declare every object of a linear encoder (a
+    /// `const`: the build fails otherwise).
+    pub const fn of(table: &[Entry]) -> Entries {
+        Entries {
+            operating: at(table, 0x6000, 0),
+            resolution: at(table, 0x6005, 1),
+            speed_step: at(table, 0x6005, 2),
+            calibration: at(table, 0x6010, 1),
+            position: at(table, 0x6020, 1),
+            speed: at(table, 0x6030, 1),
+            cycle_timer: at(table, 0x6200, 0),
+            event_timer: at(table, 0x1800, 5),
+            area_state: [at(table, 0x6400, 1), at(table, 0x6400, 2)],
+            area_low: [at(table, 0x6401, 1), at(table, 0x6401, 2)],
+            area_high: [at(table, 0x6402, 1), at(table, 0x6402, 2)],
+            status: at(table, 0x6500, 0),
+            alarms: at(table, 0x6503, 0),
+            supported_alarms: at(table, 0x6504, 0),
+            warnings: at(table, 0x6505, 0),
+            supported_warnings: at(table, 0x6506, 0),
+            offset: at(table, 0x6509, 0),
+            offset_1: at(table, 0x650C, 1),
+            diagnosis: at(table, 0x5000, 0),
+            counters: at(table, 0x1002, 0),
+        }
+    }
 }
 
 /// What distinguishes one linear encoder from another.
@@ -138,6 +228,8 @@ pub struct LinearSpec {
     pub integration_us: u32,
     /// Sensor sample period in microseconds.
     pub sample_period_us: u32,
+    /// Where the objects sit in the device's table.
+    pub entries: Entries,
 }
 
 /// The CAN error ranking of 5000h: how often each kind occurred (acknowledge, form, CRC,
@@ -229,7 +321,7 @@ impl Linear {
 
     /// The last valid measured value (steps in the counting direction of `od`), if any.
     fn measured(&self, od: &Od) -> Option<i64> {
-        self.steps.map(|s| measured(s, Self::descending(od)))
+        self.steps.map(|s| measured(s, self.descending(od)))
     }
 
     /// Is the position value invalid (sensor fault)?
@@ -237,47 +329,64 @@ impl Linear {
         self.fault
     }
 
-    fn descending(od: &Od) -> bool {
-        od.value(0x6000, 0).unwrap_or(0) as u16 & DIRECTION_BIT != 0
+    fn get(&self, od: &Od, pos: u8) -> u32 {
+        od.get(pos as usize)
     }
 
-    fn offset(od: &Od) -> i64 {
-        od.value(0x6509, 0).unwrap_or(0) as i32 as i64
+    fn set(&self, od: &mut Od, pos: u8, value: u32) {
+        od.set(pos as usize, value);
     }
 
-    fn set_offset(od: &mut Od, offset: i64) {
+    fn descending(&self, od: &Od) -> bool {
+        self.get(od, self.spec.entries.operating) as u16 & DIRECTION_BIT != 0
+    }
+
+    fn offset(&self, od: &Od) -> i64 {
+        self.get(od, self.spec.entries.offset) as i32 as i64
+    }
+
+    fn set_offset(&self, od: &mut Od, offset: i64) {
         let v = offset.clamp(i32::MIN as i64, i32::MAX as i64) as i32 as u32;
-        od.set_value(0x6509, 0, v);
-        od.set_value(0x650C, 1, v);
+        self.set(od, self.spec.entries.offset, v);
+        self.set(od, self.spec.entries.offset_1, v);
     }
 
-    fn set_position(od: &mut Od, p: i64) {
-        od.set_value(0x6020, 1, p.clamp(i32::MIN as i64, i32::MAX as i64) as i32 as u32);
+    fn set_position(&self, od: &mut Od, p: i64) {
+        self.set(od, self.spec.entries.position, p.clamp(i32::MIN as i64, i32::MAX as i64) as i32 as u32);
+    }
+
+    /// The position value of the last valid reading, its offset and direction from `od`.
+    fn update_position(&self, od: &mut Od) {
+        if let Some(m) = self.measured(od) {
+            self.set_position(od, position(m, self.offset(od)));
+        }
+    }
+
+    fn set_status(&self, od: &mut Od, operating: u16) {
+        self.set(od, self.spec.entries.status, operating_status(operating, DIRECTION_BIT | SCALING_BIT) as u32);
     }
 
     /// Brings the derived objects in line with the dictionary after power-on or a reset.
     fn start(&mut self, core: &mut Core, kind: ResetKind) {
+        let at = &self.spec.entries;
         let od = &mut core.od;
-        let op = od.value(0x6000, 0).unwrap_or(0) as u16;
-        od.set_value(0x6500, 0, operating_status(op, DIRECTION_BIT | SCALING_BIT) as u32);
+        self.set_status(od, self.get(od, at.operating) as u16);
         // 6200h and 1800h.05 are one value in two objects of two storage groups: after a
         // reset, the one that differs from its default wins, 1800h.05 when both do.
-        if let (Some(a), Some(b)) = (od.pos(0x1800, 5), od.pos(0x6200, 0)) {
-            let (va, vb) = (od.get(a), od.get(b));
-            let v = if va != od.entry(a).default_value(0) || vb == od.entry(b).default_value(0) { va } else { vb };
-            od.set(a, v);
-            od.set(b, v);
-        }
+        let (a, b) = (at.event_timer as usize, at.cycle_timer as usize);
+        let (va, vb) = (od.get(a), od.get(b));
+        let v = if va != od.entry(a).default_value(0) || vb == od.entry(b).default_value(0) { va } else { vb };
+        od.set(a, v);
+        od.set(b, v);
         if kind == ResetKind::Node {
             // 6010h.01 is not stored: the application starts with its default.
-            if let Some(p) = od.pos(0x6010, 1) {
-                od.set(p, od.entry(p).default_value(0));
-            }
+            let p = at.calibration as usize;
+            od.set(p, od.entry(p).default_value(0));
             self.speed.reset();
         }
         // The CAN diagnosis belongs to the communication, which both resets re-initialise.
         self.can = CanDiagnosis::default();
-        od.set_value(0x5000, 0, 0);
+        self.set(od, at.diagnosis, 0);
         // The EMCY producer keeps the active conditions over a reset (and announces them
         // again after the boot-up), so the edge tracker keeps them too.
         self.started = true;
@@ -292,8 +401,9 @@ impl Linear {
     /// Takes a sensor sample (see [`crate::encoder::Encoder::on_sample`]).
     pub fn on_sample(&mut self, core: &mut Core, raw: Result<u32, SensorFault>, now: Instant) {
         self.ensure_started(core);
+        let at = &self.spec.entries;
         let od = &mut core.od;
-        let resolution = od.value(0x6005, 1).unwrap_or(100_000);
+        let resolution = self.get(od, at.resolution);
         let reading = raw.and_then(|um| {
             let s = steps(um, resolution);
             if s > self.spec.max_steps {
@@ -304,16 +414,15 @@ impl Linear {
         });
         match reading {
             Ok(s) => {
-                let m = measured(s, Self::descending(od));
+                let m = measured(s, self.descending(od));
                 self.fault = false;
                 self.steps = Some(s);
-                Self::set_position(od, position(m, Self::offset(od)));
+                self.set_position(od, position(m, self.offset(od)));
                 if let Some(w) = self.speed.push(now, m) {
-                    let speed_step = od.value(0x6005, 2).unwrap_or(100);
-                    let v = speed_value(w, resolution, speed_step);
+                    let v = speed_value(w, resolution, self.get(od, at.speed_step));
                     self.speed_fault = v > i16::MAX as i64 || v < i16::MIN as i64;
                     let v = v.clamp(i16::MIN as i64, i16::MAX as i64) as i16;
-                    od.set_value(0x6030, 1, v as u16 as u32);
+                    self.set(od, at.speed, v as u16 as u32);
                 }
             }
             Err(_) => {
@@ -323,7 +432,7 @@ impl Linear {
                 // reads 0, which it can represent: no speed error (FF05h reports the fault).
                 self.speed.reset();
                 self.speed_fault = false;
-                od.set_value(0x6030, 1, 0);
+                self.set(od, at.speed, 0);
             }
         }
         self.evaluate(core, now);
@@ -332,15 +441,22 @@ impl Linear {
     /// Recomputes the work areas, alarms and warnings from the current position and reports
     /// every condition that changed.
     fn evaluate(&mut self, core: &mut Core, now: Instant) {
+        let at = &self.spec.entries;
         let od = &mut core.od;
         if self.steps.is_some() {
-            let p = od.value(0x6020, 1).unwrap_or(0) as i32 as i64;
-            self.areas.evaluate(od, p);
+            let p = self.get(od, at.position) as i32 as i64;
+            for k in 0..2 {
+                let low = self.get(od, at.area_low[k]) as i32 as i64;
+                let high = self.get(od, at.area_high[k]) as i32 as i64;
+                let s = area_state(p, low, high);
+                self.areas.state[k] = s;
+                self.set(od, at.area_state[k], s as u32);
+            }
         }
-        let supported = od.value(0x6504, 0).unwrap_or(0) as u16;
-        od.set_value(0x6503, 0, alarms(self.fault, &self.areas, supported) as u32);
-        let supported = od.value(0x6506, 0).unwrap_or(0) as u16;
-        od.set_value(0x6505, 0, warnings(self.speed_fault, supported) as u32);
+        let supported = self.get(od, at.supported_alarms) as u16;
+        self.set(od, at.alarms, alarms(self.fault, &self.areas, supported) as u32);
+        let supported = self.get(od, at.supported_warnings) as u16;
+        self.set(od, at.warnings, warnings(self.speed_fault, supported) as u32);
         self.report(core, now);
     }
 
@@ -385,28 +501,27 @@ impl Linear {
                 if (old ^ v) & DIRECTION_BIT != 0 {
                     // Mirror the position about zero: the measured value changes sign, and
                     // so does the offset.
-                    Self::set_offset(od, -Self::offset(od));
-                    if let Some(m) = self.measured(od) {
-                        Self::set_position(od, position(m, Self::offset(od)));
-                    }
-                    let speed = od.value(0x6030, 1).unwrap_or(0) as u16 as i16;
-                    od.set_value(0x6030, 1, speed.saturating_neg() as u16 as u32);
+                    self.set_offset(od, -self.offset(od));
+                    self.update_position(od);
+                    let at = self.spec.entries.speed;
+                    let speed = self.get(od, at) as u16 as i16;
+                    self.set(od, at, speed.saturating_neg() as u16 as u32);
                     self.speed.reset();
                 }
-                od.set_value(0x6500, 0, operating_status(v, DIRECTION_BIT | SCALING_BIT) as u32);
+                self.set_status(od, v);
             }
             hooks::CALIBRATE => {
                 let m = self.measured(&core.od).ok_or(Abort::NO_DATA)?;
                 let c = value as i32 as i64;
                 let od = &mut core.od;
-                Self::set_offset(od, calibration_offset(m, c));
-                Self::set_position(od, position(m, Self::offset(od)));
+                self.set_offset(od, calibration_offset(m, c));
+                self.set_position(od, position(m, self.offset(od)));
             }
             // The access path has applied the TPDO1 event-timer rule ([`Linear::link`]); the
             // two entries hold one value.
             hooks::CYCLE_TIMER => {
-                core.od.set_value(0x1800, 5, value);
-                core.od.set_value(0x6200, 0, value);
+                self.set(&mut core.od, self.spec.entries.event_timer, value);
+                self.set(&mut core.od, self.spec.entries.cycle_timer, value);
             }
             hooks::WORK_AREA => core.od.set(pos, value),
             _ => return Ok(()),
@@ -419,10 +534,7 @@ impl Linear {
     pub fn on_reset(&mut self, core: &mut Core, kind: ResetKind, now: Instant) {
         self.start(core, kind);
         // The offset and the direction may have been reloaded.
-        if let Some(m) = self.measured(&core.od) {
-            let p = position(m, Self::offset(&core.od));
-            Self::set_position(&mut core.od, p);
-        }
+        self.update_position(&mut core.od);
         self.speed.reset();
         self.evaluate(core, now);
     }
@@ -447,10 +559,10 @@ impl Linear {
             BusEvent::RxOverrun => {}
             BusEvent::ProtocolError(e) => {
                 self.can.count(e);
-                core.od.set_value(0x5000, 0, self.can.ranking());
+                self.set(&mut core.od, self.spec.entries.diagnosis, self.can.ranking());
             }
             BusEvent::ErrorCounters { rx, tx } => {
-                core.od.set_value(0x1002, 0, rx as u32 | (tx as u32) << 8);
+                self.set(&mut core.od, self.spec.entries.counters, rx as u32 | (tx as u32) << 8);
             }
         }
         self.report(core, now);
@@ -503,6 +615,27 @@ mod tests {
         assert_eq!(speed_value(w, 100_000, 100), 25);
         let w = Window { delta: -50, elapsed_us: 100_000 };
         assert_eq!(speed_value(w, 100_000, 100), -50);
+    }
+
+    #[test]
+    fn speed_equals_the_128_bit_rate() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..100_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            // A window's steps times the resolution stay below 1000 × 2^32: the
+            // steps are at most 1000 × µm / resolution.
+            let res = [100_000, 1, 7, 999, (x >> 40) as u32 | 1, u32::MAX][(x % 6) as usize];
+            let limit = (1000u64 << 32) / res as u64;
+            let delta = ((x >> 7) % (2 * limit + 1)) as i64 - limit as i64;
+            let elapsed_us = [100_000, 101_000, 1, (x >> 24) + 1, u64::MAX][((x >> 3) % 5) as usize];
+            let step = [100, 1, 0, 3, (x >> 33) as u32, u32::MAX][((x >> 5) % 6) as usize];
+            let w = Window { delta, elapsed_us };
+            assert_eq!(
+                speed_value(w, res, step),
+                w.rate(res as i64, step.max(1) as i64 * 10_000),
+                "{w:?} {res} {step}"
+            );
+        }
     }
 
     #[test]

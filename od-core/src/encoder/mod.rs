@@ -23,7 +23,7 @@ use crate::context::Context as Core;
 use crate::device::{Device, Link};
 use crate::emcy;
 use crate::od::CoreHook;
-use crate::od::Od;
+use crate::od::{Entry, Od};
 use crate::time::Instant;
 
 /// Why the sensor gave no usable reading. Any fault makes the position value invalid:
@@ -63,6 +63,21 @@ pub const CYCLE_TIMER_LINK: Link = Link { index: 0x1800, sub: 5, hook: CoreHook:
 pub fn program_serial(od: &mut Od, serial: u32) {
     od.set_value(0x1018, 4, serial);
     od.set_value(0x650B, 0, serial);
+}
+
+/// The position of (index, sub) in `table`, found when the table is declared (a `const`): a
+/// device resolves the entries its per-sample path reads and writes once, at compile time,
+/// instead of looking each up at every sample. Fails the build if the entry is not declared.
+pub const fn position(table: &[Entry], index: u16, sub: u8) -> u8 {
+    let mut i = 0;
+    while i < table.len() {
+        if table[i].index == index && table[i].sub == sub {
+            assert!(i < u8::MAX as usize, "a position fits a byte");
+            return i as u8;
+        }
+        i += 1;
+    }
+    panic!("entry not declared")
 }
 
 /// A position difference over a measured time, as [`SpeedEstimator::push`] reports it.
