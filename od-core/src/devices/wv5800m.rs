@@ -22,8 +22,8 @@ use crate::encoder::rotary::{
     PHYSICAL_STEPS, SCALING_BIT,
 };
 use crate::encoder::{
-    alarms, operating_status, warnings, Condition, EmcyConditions, Encoder, SensorFault, SpeedEstimator, WorkAreas,
-    CYCLE_TIMER_LINK,
+    alarms, operating_status, position as at, position_if, warnings, Condition, EmcyConditions, Encoder, SensorFault,
+    SpeedEstimator, WorkAreas, ABSENT, CYCLE_TIMER_LINK,
 };
 use crate::led::{LedInputs, Leds, WARNING_LIMIT};
 use crate::od::{Access::*, DataType::*, Entry, Group, Hook, Od};
@@ -224,6 +224,106 @@ pub const fn table_of(variant: Variant) -> &'static [Entry] {
     }
 }
 
+/// Where the encoder's objects sit in a rotary encoder's table ([`Entries::of`], resolved when
+/// the table is declared), so the per-sample path reads and writes them without a lookup. The
+/// eight WV5800M tables share one layout ([`WV5800M_ENTRIES`]); the WV58MR's have their own.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Entries {
+    /// 2001h application offset.
+    pub offset: u8,
+    /// 2003h limit speed low.
+    pub limit_low: u8,
+    /// 2004h limit speed high.
+    pub limit_high: u8,
+    /// 5000h CAN diagnosis.
+    pub diagnosis: u8,
+    /// 6000h operating parameters.
+    pub operating: u8,
+    /// 6001h measuring steps per revolution.
+    pub apu: u8,
+    /// 6002h total measuring range.
+    pub total: u8,
+    /// 6003h preset value.
+    pub preset: u8,
+    /// 6004h position value.
+    pub position: u8,
+    /// 600Ch position raw value.
+    pub raw: u8,
+    /// 6030h.01 speed value.
+    pub speed: u8,
+    /// 6031h.03 speed multiplier.
+    pub multiplier: u8,
+    /// 6031h.04 speed divisor.
+    pub divisor: u8,
+    /// 6200h cyclic timer.
+    pub cycle_timer: u8,
+    /// 6400h.01/.02 work-area states.
+    pub area_state: [u8; 2],
+    /// 6401h.01/.02 work-area low limits.
+    pub area_low: [u8; 2],
+    /// 6402h.01/.02 work-area high limits.
+    pub area_high: [u8; 2],
+    /// 6500h operating status.
+    pub status: u8,
+    /// 6503h alarms.
+    pub alarms: u8,
+    /// 6504h supported alarms.
+    pub supported_alarms: u8,
+    /// 6505h warnings.
+    pub warnings: u8,
+    /// 6506h supported warnings.
+    pub supported_warnings: u8,
+    /// 6509h calibration (offset value).
+    pub calibration: u8,
+    /// 650Ah.01 manufacturer offset value.
+    pub module_offset: u8,
+    /// 650Ah.03 manufacturer maximum position value.
+    pub largest: u8,
+    /// 1800h.05 TPDO1 event timer ([`ABSENT`] without CANopen).
+    pub event_timer: u8,
+    /// 1002h manufacturer status register ([`ABSENT`] if not declared).
+    pub counters: u8,
+}
+
+impl Entries {
+    /// The positions in `table`, which must declare every CiA 406 object of the rotary encoder
+    /// (a `const`: the build fails otherwise); 1800h.05 and 1002h may be absent.
+    pub const fn of(table: &[Entry]) -> Entries {
+        Entries {
+            offset: at(table, 0x2001, 0),
+            limit_low: at(table, 0x2003, 0),
+            limit_high: at(table, 0x2004, 0),
+            diagnosis: at(table, 0x5000, 0),
+            operating: at(table, 0x6000, 0),
+            apu: at(table, 0x6001, 0),
+            total: at(table, 0x6002, 0),
+            preset: at(table, 0x6003, 0),
+            position: at(table, 0x6004, 0),
+            raw: at(table, 0x600C, 0),
+            speed: at(table, 0x6030, 1),
+            multiplier: at(table, 0x6031, 3),
+            divisor: at(table, 0x6031, 4),
+            cycle_timer: at(table, 0x6200, 0),
+            area_state: [at(table, 0x6400, 1), at(table, 0x6400, 2)],
+            area_low: [at(table, 0x6401, 1), at(table, 0x6401, 2)],
+            area_high: [at(table, 0x6402, 1), at(table, 0x6402, 2)],
+            status: at(table, 0x6500, 0),
+            alarms: at(table, 0x6503, 0),
+            supported_alarms: at(table, 0x6504, 0),
+            warnings: at(table, 0x6505, 0),
+            supported_warnings: at(table, 0x6506, 0),
+            calibration: at(table, 0x6509, 0),
+            module_offset: at(table, 0x650A, 1),
+            largest: at(table, 0x650A, 3),
+            event_timer: position_if(table, 0x1800, 5),
+            counters: position_if(table, 0x1002, 0),
+        }
+    }
+}
+
+/// The positions in every WV5800M table (they share one layout; a test checks all eight).
+pub static WV5800M_ENTRIES: Entries = Entries::of(&WV_4096);
+
 /// EMCY FF12h: velocity error, the maximum speed (6000 rpm) exceeded.
 pub const EMCY_VELOCITY: Condition = Condition { code: 0xFF12, register: 0x80 };
 /// EMCY FF13h: error limit speed low (below 2003h).
@@ -248,6 +348,8 @@ pub struct Wv5800m {
     /// The variant's dictionary, chosen once in [`Wv5800m::new`] so that only `new` names the
     /// eight tables: a firmware that builds one variant links one table.
     table: &'static [Entry],
+    /// Where the objects sit in `table`.
+    at: &'static Entries,
     speed: SpeedEstimator,
     /// Last valid raw count (600Ch), `None` before the first sample and while the sensor fails.
     raw: Option<u32>,
@@ -276,6 +378,7 @@ impl Wv5800m {
         Wv5800m {
             variant,
             table: table_of(variant),
+            at: &WV5800M_ENTRIES,
             speed: SpeedEstimator::new(100_000),
             raw: None,
             travel: 0,
@@ -311,9 +414,17 @@ impl Wv5800m {
     }
 
     /// The same encoder behaviour over another dictionary with this variant's rows (the
-    /// J1939 WV58MR's: same CiA 406 objects, same hooks 1..=5 and 7).
-    pub(crate) fn with_table(variant: Variant, table: &'static [Entry]) -> Wv5800m {
-        Wv5800m { table, ..Wv5800m::new(variant) }
+    /// J1939 WV58MR's: same CiA 406 objects, same hooks 1..=5 and 7), its objects at `at`.
+    pub(crate) fn with_table(variant: Variant, table: &'static [Entry], at: &'static Entries) -> Wv5800m {
+        Wv5800m { table, at, ..Wv5800m::new(variant) }
+    }
+
+    fn get(&self, od: &Od, pos: u8) -> u32 {
+        od.get(pos as usize)
+    }
+
+    fn set(&self, od: &mut Od, pos: u8, value: u32) {
+        od.set(pos as usize, value);
     }
 
     /// The last valid raw count (600Ch), `None` before the first sample and while the sensor
@@ -352,30 +463,31 @@ impl Wv5800m {
 
     /// The scaling the dictionary holds now.
     pub fn scaling(&self, od: &Od) -> Scaling {
-        let v = |i: u16, s: u8, d: u32| od.value(i, s).unwrap_or(d);
+        let at = self.at;
         let n = self.variant.turns.revolutions();
         let r = rotary::raw_range(n);
         Scaling {
             revolutions: n,
-            apu: v(0x6001, 0, PHYSICAL_STEPS).clamp(1, MAX_APU),
-            ccw: v(0x6000, 0, 0) as u16 & DIRECTION_BIT != 0,
-            calibration: crate::arith::rem_euclid(v(0x6509, 0, 0) as i32 as i64, r),
-            preset: v(0x6003, 0, 0) as i32,
-            offset: v(0x2001, 0, 0) as i32,
+            apu: self.get(od, at.apu).clamp(1, MAX_APU),
+            ccw: self.get(od, at.operating) as u16 & DIRECTION_BIT != 0,
+            calibration: crate::arith::rem_euclid(self.get(od, at.calibration) as i32 as i64, r),
+            preset: self.get(od, at.preset) as i32,
+            offset: self.get(od, at.offset) as i32,
         }
     }
 
     /// Sets the objects derived from the scaling: 6002h, 650Ah.01/.03, 6500h, and 6004h from
     /// the last valid reading.
     fn derive(&self, od: &mut Od) {
+        let at = self.at;
         let s = self.scaling(od);
-        od.set_value(0x6002, 0, s.total());
-        od.set_value(0x650A, 1, s.offset as u32);
-        od.set_value(0x650A, 3, s.largest());
-        let op = od.value(0x6000, 0).unwrap_or(0) as u16;
-        od.set_value(0x6500, 0, operating_status(op, DIRECTION_BIT | SCALING_BIT) as u32);
+        self.set(od, at.total, s.total());
+        self.set(od, at.module_offset, s.offset as u32);
+        self.set(od, at.largest, s.largest());
+        let op = self.get(od, at.operating) as u16;
+        self.set(od, at.status, operating_status(op, DIRECTION_BIT | SCALING_BIT) as u32);
         if let Some(raw) = self.raw {
-            od.set_value(0x6004, 0, s.position(raw));
+            self.set(od, at.position, s.position(raw));
         }
     }
 
@@ -384,7 +496,9 @@ impl Wv5800m {
         let od = &mut core.od;
         // 6200h and 1800h.05 are one value in two objects of two storage groups: after a
         // reset, the one that differs from its default wins, 1800h.05 when both do.
-        if let (Some(a), Some(b)) = (od.pos(0x1800, 5), od.pos(0x6200, 0)) {
+        let at = self.at;
+        if at.event_timer != ABSENT {
+            let (a, b) = (at.event_timer as usize, at.cycle_timer as usize);
             let (va, vb) = (od.get(a), od.get(b));
             let v = if va != od.entry(a).default_value(0) || vb == od.entry(b).default_value(0) { va } else { vb };
             od.set(a, v);
@@ -393,7 +507,7 @@ impl Wv5800m {
         self.derive(od);
         self.speed.reset();
         self.can = CanDiagnosis::default();
-        od.set_value(0x5000, 0, 0);
+        self.set(od, at.diagnosis, 0);
         self.started = true;
     }
 
@@ -405,26 +519,27 @@ impl Wv5800m {
 
     /// Recomputes work areas, alarms and warnings and reports the EMCY conditions.
     fn evaluate(&mut self, core: &mut Core, now: Instant) {
+        let at = self.at;
         let od = &mut core.od;
         if self.raw.is_some() {
-            let p = od.value(0x6004, 0).unwrap_or(0);
-            for k in 0..2u8 {
-                let low = od.value(0x6401, k + 1).unwrap_or(0) as i32;
-                let high = od.value(0x6402, k + 1).unwrap_or(0) as i32;
+            let p = self.get(od, at.position);
+            for k in 0..2 {
+                let low = self.get(od, at.area_low[k]) as i32;
+                let high = self.get(od, at.area_high[k]) as i32;
                 let s = work_area_state(p, low, high);
-                self.areas.state[k as usize] = s;
-                od.set_value(0x6400, k + 1, s as u32);
+                self.areas.state[k] = s;
+                self.set(od, at.area_state[k], s as u32);
             }
         }
-        let speed = od.value(0x6030, 1).unwrap_or(0) as u16 as i16 as i64;
-        let low = od.value(0x2003, 0).unwrap_or(0) as u16 as i16;
-        let high = od.value(0x2004, 0).unwrap_or(0) as u16 as i16;
+        let speed = self.get(od, at.speed) as u16 as i16 as i64;
+        let low = self.get(od, at.limit_low) as u16 as i16;
+        let high = self.get(od, at.limit_high) as u16 as i16;
         (self.limit_low, self.limit_high) = if self.fault { (false, false) } else { limit_speed(speed, low, high) };
-        let supported = od.value(0x6504, 0).unwrap_or(0) as u16;
-        od.set_value(0x6503, 0, alarms(self.fault, &self.areas, supported) as u32);
-        let supported = od.value(0x6506, 0).unwrap_or(0) as u16;
+        let supported = self.get(od, at.supported_alarms) as u16;
+        self.set(od, at.alarms, alarms(self.fault, &self.areas, supported) as u32);
+        let supported = self.get(od, at.supported_warnings) as u16;
         let warn = self.over_speed || self.limit_low || self.limit_high;
-        od.set_value(0x6505, 0, warnings(warn, supported) as u32);
+        self.set(od, at.warnings, warnings(warn, supported) as u32);
         self.report(core, now);
     }
 
@@ -472,9 +587,9 @@ impl Device for Wv5800m {
                 let ccw = v & DIRECTION_BIT != 0;
                 if ccw != before.ccw {
                     let after = before.with_direction(ccw);
-                    core.od.set_value(0x6509, 0, after.calibration);
-                    let speed = core.od.value(0x6030, 1).unwrap_or(0) as u16 as i16;
-                    core.od.set_value(0x6030, 1, speed.saturating_neg() as u16 as u32);
+                    self.set(&mut core.od, self.at.calibration, after.calibration);
+                    let speed = self.get(&core.od, self.at.speed) as u16 as i16;
+                    self.set(&mut core.od, self.at.speed, speed.saturating_neg() as u16 as u32);
                     self.travel = -self.travel;
                     self.speed.reset();
                 }
@@ -495,14 +610,16 @@ impl Device for Wv5800m {
             // 1 calibrates; 0, the printed default, does nothing (D-WV-4).
             hooks::CALIBRATE if value == 1 => {
                 let raw = self.raw.ok_or(Abort::NO_DATA)?;
-                core.od.set_value(0x6509, 0, before.calibrated_at(raw));
+                self.set(&mut core.od, self.at.calibration, before.calibrated_at(raw));
             }
             hooks::CALIBRATE => {}
             // The access path has applied the TPDO1 event-timer rule (`link`); the two entries
             // hold one value.
             hooks::CYCLE_TIMER => {
-                core.od.set_value(0x1800, 5, value);
-                core.od.set_value(0x6200, 0, value);
+                if self.at.event_timer != ABSENT {
+                    self.set(&mut core.od, self.at.event_timer, value);
+                }
+                self.set(&mut core.od, self.at.cycle_timer, value);
             }
             _ => return Ok(()),
         }
@@ -538,11 +655,13 @@ impl Device for Wv5800m {
             BusEvent::RxOverrun => {}
             BusEvent::ProtocolError(e) => {
                 self.can.count(e);
-                core.od.set_value(0x5000, 0, self.can.ranking());
+                self.set(&mut core.od, self.at.diagnosis, self.can.ranking());
             }
             BusEvent::ErrorCounters { rx, tx } => {
                 self.warning = rx >= WARNING_LIMIT || tx >= WARNING_LIMIT;
-                core.od.set_value(0x1002, 0, rx as u32 | (tx as u32) << 8);
+                if self.at.counters != ABSENT {
+                    self.set(&mut core.od, self.at.counters, rx as u32 | (tx as u32) << 8);
+                }
             }
         }
         self.report(core, now);
@@ -560,6 +679,7 @@ impl Encoder for Wv5800m {
         self.ensure_started(core);
         let s = self.scaling(&core.od);
         let reading = raw.and_then(|r| if s.valid(r) { Ok(r) } else { Err(SensorFault::OutOfRange) });
+        let at = self.at;
         let od = &mut core.od;
         match reading {
             Ok(r) => {
@@ -568,13 +688,12 @@ impl Encoder for Wv5800m {
                 }
                 self.fault = false;
                 self.raw = Some(r);
-                od.set_value(0x600C, 0, r);
-                od.set_value(0x6004, 0, s.position(r));
+                self.set(od, at.raw, r);
+                self.set(od, at.position, s.position(r));
                 if let Some(w) = self.speed.push(now, self.travel) {
-                    let mul = od.value(0x6031, 3).unwrap_or(1);
-                    let div = od.value(0x6031, 4).unwrap_or(1);
+                    let (mul, div) = (self.get(od, at.multiplier), self.get(od, at.divisor));
                     let v = speed_value(w, mul, div).clamp(i16::MIN as i64, i16::MAX as i64) as i16;
-                    od.set_value(0x6030, 1, v as u16 as u32);
+                    self.set(od, at.speed, v as u16 as u32);
                     self.over_speed = over_speed(w);
                 }
             }
@@ -583,7 +702,7 @@ impl Encoder for Wv5800m {
                 self.raw = None;
                 self.speed.reset();
                 self.over_speed = false;
-                od.set_value(0x6030, 1, 0);
+                self.set(od, at.speed, 0);
             }
         }
         self.evaluate(core, now);
@@ -608,6 +727,21 @@ mod tests {
         Variant { model: Model::Wh, turns: Turns::Multi8 },
         Variant { model: Model::Wh, turns: Turns::Multi12 },
     ];
+
+    #[test]
+    fn every_table_has_the_objects_where_the_encoder_looks() {
+        for model in [Model::Wv, Model::Wh] {
+            for turns in [Turns::Single, Turns::Multi4, Turns::Multi8, Turns::Multi12] {
+                assert_eq!(Entries::of(table_of(Variant { model, turns })), WV5800M_ENTRIES, "{model:?} {turns:?}");
+            }
+        }
+        let od = Od::new(table_of(Variant { model: Model::Wv, turns: Turns::Multi4 }), 1);
+        let at = WV5800M_ENTRIES;
+        assert_eq!(od.pos(0x6031, 4), Some(at.divisor as usize));
+        assert_eq!(od.pos(0x1800, 5), Some(at.event_timer as usize));
+        assert_eq!(od.pos(0x1002, 0), Some(at.counters as usize));
+        assert_eq!(od.pos(0x6402, 2), Some(at.area_high[1] as usize));
+    }
 
     #[test]
     fn every_manual_row_is_declared() {

@@ -130,15 +130,7 @@ pub const fn calibration_offset(measured: i64, calibration_value: i64) -> i64 {
 /// which a linear encoder's window always does (its steps times the resolution are at most
 /// 1000 times a 32-bit reading in µm, below 2^42); larger products saturate.
 pub fn speed_value(window: crate::encoder::Window, resolution_nm: u32, speed_step: u32) -> i64 {
-    use crate::arith::{div_u64, mul_sat};
-    let n = mul_sat(mul_sat(window.delta.unsigned_abs(), resolution_nm), 100);
-    let d = mul_sat(window.elapsed_us, speed_step.max(1));
-    let q = div_u64(n.saturating_add(d / 2), d).min(i64::MAX as u64) as i64;
-    if window.delta < 0 {
-        -q
-    } else {
-        q
-    }
+    window.ratio(resolution_nm, 100, speed_step)
 }
 
 /// Where the linear encoder's objects sit in its device's table ([`Entries::of`], resolved

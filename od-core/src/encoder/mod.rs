@@ -80,6 +80,23 @@ pub const fn position(table: &[Entry], index: u16, sub: u8) -> u8 {
     panic!("entry not declared")
 }
 
+/// The position of (index, sub) in `table` as [`position`] finds it, or [`ABSENT`] if the
+/// table does not declare it.
+pub const fn position_if(table: &[Entry], index: u16, sub: u8) -> u8 {
+    let mut i = 0;
+    while i < table.len() {
+        if table[i].index == index && table[i].sub == sub {
+            assert!(i < ABSENT as usize, "a position fits a byte");
+            return i as u8;
+        }
+        i += 1;
+    }
+    ABSENT
+}
+
+/// [`position_if`] of an entry the table does not declare.
+pub const ABSENT: u8 = u8::MAX;
+
 /// A position difference over a measured time, as [`SpeedEstimator::push`] reports it.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Window {
@@ -109,6 +126,25 @@ impl Window {
         let q = crate::arith::div_u128(n.unsigned_abs() + (d as u128) / 2, d as u128);
         let q = q.min(i64::MAX as u128 + 1) as i128;
         (if n < 0 { -q } else { q }).clamp(i64::MIN as i128, i64::MAX as i128) as i64
+    }
+}
+
+impl Window {
+    /// `delta × mul × scale / (elapsed_us × div)`, rounded to nearest (halves away from zero),
+    /// in 64 bits: what [`Window::rate`] gives for `rate(mul × scale, 10^6 × div / ...)` once the
+    /// common factors are cancelled (the same number, so the same rounding), without the
+    /// 128-bit arithmetic. Exact while `|delta| × mul × scale` and `elapsed_us × div` stay
+    /// below 2^64; beyond, they saturate. `div` 0 counts as 1.
+    pub fn ratio(&self, mul: u32, scale: u32, div: u32) -> i64 {
+        use crate::arith::{div_u64, mul_sat};
+        let n = mul_sat(mul_sat(self.delta.unsigned_abs(), mul), scale);
+        let d = mul_sat(self.elapsed_us, div.max(1));
+        let q = div_u64(n.saturating_add(d / 2), d);
+        if self.delta < 0 {
+            (q.min(1 << 63) as i64).wrapping_neg()
+        } else {
+            q.min(i64::MAX as u64) as i64
+        }
     }
 }
 

@@ -209,8 +209,13 @@ pub const fn raw_delta(new: u32, old: u32, raw_range: u32, ccw: bool) -> i64 {
 
 /// The speed value (6030h.01) of a window of raw movement: increments per millisecond times
 /// the 6031h multiplier over the divisor, rounded to nearest. Not saturated.
+///
+/// [`Window::rate`]`(multiplier, 1000 × divisor)` in 64 bits ([`Window::ratio`]): `delta ×
+/// mul × 10^6 / (elapsed × 1000 × div)` is `delta × mul × 1000 / (elapsed × div)`. Exact while
+/// `|delta| × multiplier` stays below 2^54: a window's raw travel is at most half the raw
+/// range (2^25) per sample, and 6031h.03 is 1.
 pub fn speed_value(window: Window, multiplier: u32, divisor: u32) -> i64 {
-    window.rate(multiplier as i64, 1000 * divisor.max(1) as i64)
+    window.ratio(multiplier, 1000, divisor)
 }
 
 /// Is the raw movement of `window` faster than the maximum speed (6000 rpm)?
@@ -244,6 +249,21 @@ mod tests {
 
     fn scaling(revolutions: u32) -> Scaling {
         Scaling { revolutions, apu: PHYSICAL_STEPS, ccw: false, calibration: 0, preset: 0, offset: 0 }
+    }
+
+    #[test]
+    fn speed_equals_the_128_bit_rate() {
+        let mut x = 0x9E37_79B9_7F4A_7C15u64;
+        for _ in 0..100_000 {
+            x = x.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+            let mul = [1, 2, 65_535, (x >> 48) as u32][(x % 4) as usize];
+            let limit = (1u64 << 54) / mul.max(1) as u64;
+            let delta = ((x >> 7) % (2 * limit + 1)) as i64 - limit as i64;
+            let elapsed_us = [100_000, 101_000, 1, (x >> 24) + 1, u64::MAX / 65_536][((x >> 3) % 5) as usize];
+            let div = [1, 0, 7, 65_535][((x >> 5) % 4) as usize];
+            let w = Window { delta, elapsed_us };
+            assert_eq!(speed_value(w, mul, div), w.rate(mul as i64, 1000 * div.max(1) as i64), "{w:?} {mul} {div}");
+        }
     }
 
     #[test]

@@ -47,7 +47,7 @@ impl Wv58mr {
     pub fn new(turns: Turns) -> Wv58mr {
         Wv58mr {
             turns,
-            encoder: Wv5800m::with_table(Variant { model: Model::Wv, turns }, table_of(turns)),
+            encoder: Wv5800m::with_table(Variant { model: Model::Wv, turns }, table_of(turns), &table::ENCODER_ENTRIES),
             command: None,
             claim: State::Off,
         }
@@ -179,6 +179,18 @@ impl Encoder for Wv58mr {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_table_has_the_objects_where_the_encoder_looks() {
+        use crate::devices::wv5800m::Entries;
+        for turns in [Turns::Single, Turns::Multi4, Turns::Multi8, Turns::Multi12] {
+            assert_eq!(Entries::of(table_of(turns)), table::ENCODER_ENTRIES, "{turns:?}");
+        }
+        let at = table::ENCODER_ENTRIES;
+        assert_eq!((at.event_timer, at.counters), (crate::encoder::ABSENT, crate::encoder::ABSENT));
+        let t = table_of(Turns::Multi12);
+        assert_eq!((t[at.cycle_timer as usize].index, t[at.speed as usize].index), (0x6200, 0x6030));
+    }
 
     #[test]
     fn a_channel_serves_the_dictionary_of_its_measuring_range() {

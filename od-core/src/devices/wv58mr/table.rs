@@ -190,6 +190,10 @@ pub const fn table(turns: Turns) -> [Entry; ENTRIES] {
     ])
 }
 
+/// Where the encoder's objects sit in every WV58MR table (the four share one layout; a test
+/// checks them).
+pub static ENCODER_ENTRIES: crate::devices::wv5800m::Entries = crate::devices::wv5800m::Entries::of(&MT12);
+
 static ST: [Entry; ENTRIES] = table(Turns::Single);
 static MT4: [Entry; ENTRIES] = table(Turns::Multi4);
 static MT8: [Entry; ENTRIES] = table(Turns::Multi8);
