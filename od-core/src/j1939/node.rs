@@ -94,7 +94,12 @@ fn address_range(od: &Od) -> (u8, u8) {
 
 /// The NAME the dictionary's 3001h holds (all zero fields without one).
 pub fn name_of(od: &Od) -> Name {
-    let v = |s: u8| od.value(0x3001, s).unwrap_or(0);
+    // Read in one loop: one lookup in the code rather than ten.
+    let mut values = [0u32; 11];
+    for (sub, value) in values.iter_mut().enumerate().skip(1) {
+        *value = od.value(0x3001, sub as u8).unwrap_or(0);
+    }
+    let v = |s: u8| values[s as usize];
     let fields = NameFields {
         arbitrary_address_capable: v(10) != 0,
         industry_group: v(9) as u8,
@@ -164,8 +169,11 @@ impl<D: J1939Device> J1939Node<D> {
             due: Due::default(),
             pgn_pos: [(None, None); 3],
         };
-        let at = |sub| node.ctx.od.pos(0x3000, sub).map(|p| p as u8);
-        node.pgn_pos = PGN_PARAMETERS.map(|(_, cycle, prio)| (at(cycle), at(prio)));
+        let od = &node.ctx.od;
+        for (k, &(_, cycle, prio)) in PGN_PARAMETERS.iter().enumerate() {
+            let at = |sub| od.pos(0x3000, sub).map(|p| p as u8);
+            node.pgn_pos[k] = (at(cycle), at(prio));
+        }
         // Error conditions go out as J1939 EMCY, once the claim stood (D-J1939-20).
         node.ctx.errors.announce_with(announce);
         node.ctx.errors.set_gate(Gate::Drop);
@@ -401,16 +409,13 @@ impl<D: J1939Device> J1939Node<D> {
 
     /// The scheduler takes the cycle times and priorities the dictionary holds (3000h).
     fn sync_schedule(&mut self, now: Instant) {
-        for (k, (pgn, _, _)) in PGN_PARAMETERS.into_iter().enumerate() {
-            let (cycle, prio) = self.pgn_pos[k];
+        // The scheduler's slots are in the order of PGN_PARAMETERS (`boot`).
+        for (k, &(cycle, prio)) in self.pgn_pos.iter().enumerate() {
             let od = &self.ctx.od;
             let c = cycle.map_or(0, |pos| od.get(pos as usize)) as u16;
             let p = prio.map_or(6, |pos| od.get(pos as usize)) as u8;
             let p = Priority::new(p).unwrap_or(Priority::DEFAULT);
-            if self.cyclic.get(pgn).map(|g| g.0) != Some(c) {
-                self.cyclic.set_cycle(pgn, c, now);
-            }
-            self.cyclic.set_priority(pgn, p);
+            self.cyclic.configure(k, c, p, now);
         }
     }
 

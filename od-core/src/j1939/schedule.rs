@@ -78,17 +78,43 @@ impl<const N: usize> Scheduler<N> {
         self.slots.iter_mut().find(|s| s.pgn == pgn)
     }
 
+    fn index(&self, pgn: Pgn) -> Option<usize> {
+        self.slots.iter().position(|s| s.pgn == pgn)
+    }
+
     /// Set the cycle time of `pgn` (0 switches it off) at `now`; `false` for a group the
     /// scheduler does not have.
     pub fn set_cycle(&mut self, pgn: Pgn, cycle_ms: u16, now: Instant) -> bool {
+        match self.index(pgn) {
+            Some(k) => {
+                self.set_cycle_of(k, cycle_ms, now);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The cycle time and priority of slot `k` (in the order [`Scheduler::new`] took them) as
+    /// the dictionary holds them now: a changed cycle time applies as [`Scheduler::set_cycle`]
+    /// says, an unchanged one leaves the slot's timing alone. Slots beyond `N` do not exist.
+    pub fn configure(&mut self, k: usize, cycle_ms: u16, priority: Priority, now: Instant) {
+        if let Some(s) = self.slots.get_mut(k) {
+            s.priority = priority;
+            if s.cycle_ms != cycle_ms {
+                self.set_cycle_of(k, cycle_ms, now);
+            }
+        }
+    }
+
+    fn set_cycle_of(&mut self, k: usize, cycle_ms: u16, now: Instant) {
         let running = self.running;
-        let Some(s) = self.slot(pgn) else {
-            return false;
+        let Some(s) = self.slots.get_mut(k) else {
+            return;
         };
         let old = s.cycle_ms;
         s.cycle_ms = cycle_ms;
         if !running {
-            return true;
+            return;
         }
         s.next = match (s.next, cycle_ms) {
             (_, 0) => None,
@@ -99,7 +125,6 @@ impl<const N: usize> Scheduler<N> {
                 Some(if due > now { due } else { now })
             }
         };
-        true
     }
 
     /// Set the priority of `pgn`; `false` for a group the scheduler does not have.
@@ -240,6 +265,25 @@ mod tests {
         assert!(!s.set_priority(Pgn::EMCY, p(2)));
         assert_eq!(s.poll(ms(350)).map(|d| (d.pgn, d.priority)), Some((Pgn::ESPD, p(3))));
         assert_eq!(s.poll(ms(350)).map(|d| (d.pgn, d.priority)), Some((Pgn::EPOS, p(2))));
+    }
+
+    #[test]
+    fn configure_by_slot_changes_the_timing_only_with_the_cycle() {
+        let mut s = wv58mr();
+        s.start(ms(0));
+        run(&mut s, 0, 10);
+        // The same cycle time: the grid stays (EPOS next at 50), the priority changes.
+        s.configure(2, 50, p(2), ms(20));
+        assert_eq!(s.get(Pgn::EPOS), Some((50, p(2))));
+        assert_eq!(s.next_deadline(), Some(ms(50)));
+        // A new one applies from the last transmission, as set_cycle does.
+        s.configure(2, 30, p(2), ms(20));
+        assert_eq!(s.next_deadline(), Some(ms(30)));
+        // Slot 0 (Proprietary B) switched on: due at once. No slot 3: nothing happens.
+        s.configure(0, 100, p(6), ms(25));
+        assert_eq!(s.poll(ms(25)).map(|d| d.pgn), Some(Pgn::PROPRIETARY_B));
+        s.configure(3, 10, p(1), ms(25));
+        assert_eq!((s.get(Pgn::PROPRIETARY_B), s.get(Pgn::ESPD)), (Some((100, p(6))), Some((50, p(3)))));
     }
 
     #[test]
