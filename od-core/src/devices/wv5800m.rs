@@ -498,11 +498,7 @@ impl Wv5800m {
         // reset, the one that differs from its default wins, 1800h.05 when both do.
         let at = self.at;
         if at.event_timer != ABSENT {
-            let (a, b) = (at.event_timer as usize, at.cycle_timer as usize);
-            let (va, vb) = (od.get(a), od.get(b));
-            let v = if va != od.entry(a).default_value(0) || vb == od.entry(b).default_value(0) { va } else { vb };
-            od.set(a, v);
-            od.set(b, v);
+            crate::encoder::merge_linked(od, at.event_timer as usize, at.cycle_timer as usize);
         }
         self.derive(od);
         self.speed.reset();

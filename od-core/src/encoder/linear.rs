@@ -365,11 +365,7 @@ impl Linear {
         self.set_status(od, self.get(od, at.operating) as u16);
         // 6200h and 1800h.05 are one value in two objects of two storage groups: after a
         // reset, the one that differs from its default wins, 1800h.05 when both do.
-        let (a, b) = (at.event_timer as usize, at.cycle_timer as usize);
-        let (va, vb) = (od.get(a), od.get(b));
-        let v = if va != od.entry(a).default_value(0) || vb == od.entry(b).default_value(0) { va } else { vb };
-        od.set(a, v);
-        od.set(b, v);
+        crate::encoder::merge_linked(od, at.event_timer as usize, at.cycle_timer as usize);
         if kind == ResetKind::Node {
             // 6010h.01 is not stored: the application starts with its default.
             let p = at.calibration as usize;

@@ -57,6 +57,16 @@ pub trait Encoder: Device {
 /// [`Device::link`]) and sets both.
 pub const CYCLE_TIMER_LINK: Link = Link { index: 0x1800, sub: 5, hook: CoreHook::PdoEventTimer };
 
+/// Two entries that hold one value in two storage groups (an encoder's 6200h cyclic timer and
+/// its TPDO1 event timer 1800h.05, or the WV58MR's 3000h.03), at `first` and `second`, made
+/// equal after a reset: the one that differs from its default wins, `first` when both do.
+pub fn merge_linked(od: &mut Od, first: usize, second: usize) {
+    let (va, vb) = (od.get(first), od.get(second));
+    let v = if va != od.entry(first).default_value(0) || vb == od.entry(second).default_value(0) { va } else { vb };
+    od.set(first, v);
+    od.set(second, v);
+}
+
 /// Programs the factory serial number (what the production line does once): 1018h.04, the
 /// LSS address part, and 650Bh, the CiA 406 serial number, hold the same value. Both are
 /// factory data: a user store or restore never changes them.

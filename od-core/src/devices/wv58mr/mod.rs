@@ -85,14 +85,10 @@ impl Wv58mr {
     /// from the factory serial, and 6200h with 3000h.03 (D-J1939-14).
     fn start(&mut self, ctx: &mut Context) {
         let od = &mut ctx.od;
-        let serial = od.value(0x1018, 4).unwrap_or(0);
-        od.set_value(0x3001, 1, NameFields::identity_from_serial(serial));
-        if let (Some(a), Some(b)) = (od.pos(0x3000, 3), od.pos(0x6200, 0)) {
-            let (va, vb) = (od.get(a), od.get(b));
-            let v = if va != od.entry(a).default_value(0) || vb == od.entry(b).default_value(0) { va } else { vb };
-            od.set(a, v);
-            od.set(b, v);
-        }
+        let at = &table::ENTRIES_OF_MR;
+        let serial = od.get(at.serial as usize);
+        od.set(at.identity as usize, NameFields::identity_from_serial(serial));
+        crate::encoder::merge_linked(od, at.position_cycle as usize, table::ENCODER_ENTRIES.cycle_timer as usize);
     }
 }
 
@@ -116,17 +112,17 @@ impl Device for Wv58mr {
                     return Err(Abort::INVALID_VALUE);
                 }
                 let raw = self.encoder.raw().ok_or(Abort::NO_DATA)?;
-                ctx.od.set_value(0x6509, 0, s.calibrated_at(raw));
+                ctx.od.set(table::ENCODER_ENTRIES.calibration as usize, s.calibrated_at(raw));
                 ctx.od.set(pos, value);
                 self.encoder.refresh(ctx, now);
             }
             // 6200h and 3000h.03: one value (D-J1939-14).
             hooks::CYCLE_TIMER => {
-                ctx.od.set_value(0x3000, 3, value);
+                ctx.od.set(table::ENTRIES_OF_MR.position_cycle as usize, value);
             }
             hooks::PGN_CYCLE if ctx.od.entry(pos).sub == 3 => {
-                ctx.od.set_value(0x3000, 3, value);
-                ctx.od.set_value(0x6200, 0, value);
+                ctx.od.set(table::ENTRIES_OF_MR.position_cycle as usize, value);
+                ctx.od.set(table::ENCODER_ENTRIES.cycle_timer as usize, value);
             }
             // The transport reads the cycle times and priorities after the write.
             hooks::PGN_CYCLE | hooks::PGN_PRIORITY => {}
@@ -186,6 +182,14 @@ mod tests {
         for turns in [Turns::Single, Turns::Multi4, Turns::Multi8, Turns::Multi12] {
             assert_eq!(Entries::of(table_of(turns)), table::ENCODER_ENTRIES, "{turns:?}");
         }
+        for turns in [Turns::Single, Turns::Multi4, Turns::Multi8, Turns::Multi12] {
+            assert_eq!(table::Entries::of(table_of(turns)), table::ENTRIES_OF_MR, "{turns:?}");
+        }
+        let mr = table::ENTRIES_OF_MR;
+        let t = table_of(Turns::Single);
+        assert_eq!((t[mr.serial as usize].index, t[mr.serial as usize].sub), (0x1018, 4));
+        assert_eq!((t[mr.identity as usize].index, t[mr.identity as usize].sub), (0x3001, 1));
+        assert_eq!((t[mr.position_cycle as usize].index, t[mr.position_cycle as usize].sub), (0x3000, 3));
         let at = table::ENCODER_ENTRIES;
         assert_eq!((at.event_timer, at.counters), (crate::encoder::ABSENT, crate::encoder::ABSENT));
         let t = table_of(Turns::Multi12);

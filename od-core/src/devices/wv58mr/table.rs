@@ -194,6 +194,32 @@ pub const fn table(turns: Turns) -> [Entry; ENTRIES] {
 /// checks them).
 pub static ENCODER_ENTRIES: crate::devices::wv5800m::Entries = crate::devices::wv5800m::Entries::of(&MT12);
 
+/// Where the WV58MR's own objects sit in every WV58MR table ([`Entries::of`]).
+pub static ENTRIES_OF_MR: Entries = Entries::of(&MT12);
+
+/// The positions of the WV58MR's own objects its device code reads and writes.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Entries {
+    /// 1018h.04 serial number.
+    pub serial: u8,
+    /// 3000h.03 cycle time of the position PGN (one value with 6200h).
+    pub position_cycle: u8,
+    /// 3001h.01 the NAME's identity number.
+    pub identity: u8,
+}
+
+impl Entries {
+    /// The positions in `table` (a `const`: the build fails if one is not declared).
+    pub const fn of(table: &[Entry]) -> Entries {
+        use crate::encoder::position;
+        Entries {
+            serial: position(table, 0x1018, 4),
+            position_cycle: position(table, 0x3000, 3),
+            identity: position(table, 0x3001, 1),
+        }
+    }
+}
+
 static ST: [Entry; ENTRIES] = table(Turns::Single);
 static MT4: [Entry; ENTRIES] = table(Turns::Multi4);
 static MT8: [Entry; ENTRIES] = table(Turns::Multi8);
