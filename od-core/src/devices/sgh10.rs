@@ -124,8 +124,11 @@ pub const SPEC: LinearSpec = LinearSpec {
     speed_error: true,
     integration_us: 100_000,
     sample_period_us: 1_000,
-    entries: Entries::of(&ROWS),
+    entries: &ENTRIES_AT,
 };
+
+/// Where the linear encoder's objects sit in the table.
+static ENTRIES_AT: Entries = Entries::of(&ROWS);
 
 /// The product variants of the manual; it describes no difference in behaviour or dictionary.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]

@@ -155,8 +155,11 @@ pub const SPEC: LinearSpec = LinearSpec {
     speed_error: false,
     integration_us: 100_000,
     sample_period_us: 1_000,
-    entries: Entries::of(&TABLE_1),
+    entries: &ENTRIES_AT,
 };
+
+/// Where the linear encoder's objects sit in the table.
+static ENTRIES_AT: Entries = Entries::of(&TABLE_1);
 
 /// Which of the redundant version's two encoders.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]

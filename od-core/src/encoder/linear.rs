@@ -221,7 +221,7 @@ pub struct LinearSpec {
     /// Sensor sample period in microseconds.
     pub sample_period_us: u32,
     /// Where the objects sit in the device's table.
-    pub entries: Entries,
+    pub entries: &'static Entries,
 }
 
 /// The CAN error ranking of 5000h: how often each kind occurred (acknowledge, form, CRC,
@@ -360,7 +360,7 @@ impl Linear {
 
     /// Brings the derived objects in line with the dictionary after power-on or a reset.
     fn start(&mut self, core: &mut Core, kind: ResetKind) {
-        let at = &self.spec.entries;
+        let at = self.spec.entries;
         let od = &mut core.od;
         self.set_status(od, self.get(od, at.operating) as u16);
         // 6200h and 1800h.05 are one value in two objects of two storage groups: after a
@@ -389,7 +389,7 @@ impl Linear {
     /// Takes a sensor sample (see [`crate::encoder::Encoder::on_sample`]).
     pub fn on_sample(&mut self, core: &mut Core, raw: Result<u32, SensorFault>, now: Instant) {
         self.ensure_started(core);
-        let at = &self.spec.entries;
+        let at = self.spec.entries;
         let od = &mut core.od;
         let resolution = self.get(od, at.resolution);
         let reading = raw.and_then(|um| {
@@ -429,7 +429,7 @@ impl Linear {
     /// Recomputes the work areas, alarms and warnings from the current position and reports
     /// every condition that changed.
     fn evaluate(&mut self, core: &mut Core, now: Instant) {
-        let at = &self.spec.entries;
+        let at = self.spec.entries;
         let od = &mut core.od;
         if self.steps.is_some() {
             let p = self.get(od, at.position) as i32 as i64;
