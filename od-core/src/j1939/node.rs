@@ -81,6 +81,12 @@ pub trait J1939Device: Device {
     fn on_claim(&mut self, state: State) {
         let _ = state;
     }
+
+    /// The process data the cyclic groups carry: the position value (6004h) and the speed
+    /// (6030h.01) as the dictionary holds them (0 where it declares none).
+    fn process_data(&self, od: &Od) -> (u32, i16) {
+        (od.value(0x6004, 0).unwrap_or(0), od.value(0x6030, 1).unwrap_or(0) as u16 as i16)
+    }
 }
 
 /// The lowest and highest address the node may claim: the limits of the pending address
@@ -421,9 +427,7 @@ impl<D: J1939Device> J1939Node<D> {
 
     /// The frame of group `pgn` with the dictionary's current values.
     fn group_frame(&self, pgn: Pgn, priority: Priority, sa: Address) -> Option<Frame> {
-        let od = &self.ctx.od;
-        let position = od.value(0x6004, 0).unwrap_or(0);
-        let speed = od.value(0x6030, 1).unwrap_or(0) as u16 as i16;
+        let (position, speed) = self.device.process_data(&self.ctx.od);
         let data = match pgn {
             Pgn::EPOS => Epos { position }.emit(),
             Pgn::ESPD => Espd { speed }.emit(),

@@ -160,6 +160,11 @@ impl J1939Device for Wv58mr {
     fn on_claim(&mut self, state: State) {
         self.claim = state;
     }
+
+    fn process_data(&self, od: &crate::od::Od) -> (u32, i16) {
+        let at = &table::ENCODER_ENTRIES;
+        (od.get(at.position as usize), od.get(at.speed as usize) as u16 as i16)
+    }
 }
 
 impl Encoder for Wv58mr {
@@ -194,6 +199,12 @@ mod tests {
         assert_eq!((at.event_timer, at.counters), (crate::encoder::ABSENT, crate::encoder::ABSENT));
         let t = table_of(Turns::Multi12);
         assert_eq!((t[at.cycle_timer as usize].index, t[at.speed as usize].index), (0x6200, 0x6030));
+        // What the cyclic groups carry is what the dictionary holds.
+        let d = Wv58mr::new(Turns::Multi4);
+        let mut od = crate::od::Od::new(d.table(), 0);
+        od.set_value(0x6004, 0, 123_456);
+        od.set_value(0x6030, 1, -5i16 as u16 as u32);
+        assert_eq!(d.process_data(&od), (123_456, -5));
     }
 
     #[test]
