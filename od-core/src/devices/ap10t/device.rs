@@ -271,8 +271,10 @@ impl Ap10t {
     }
 
     /// Sends the answer to a remote request for set point `n` + 1 with `send`: only that
-    /// answer carries the data identifier in status word bit 9 (D-AP-13).
-    fn remote_answer(&self, core: &mut Core, n: u8, send: impl FnOnce(&mut Core)) {
+    /// answer carries the data identifier in status word bit 9 (D-AP-13). One copy for both
+    /// kinds of remote request (`send` is not generic).
+    #[inline(never)]
+    fn remote_answer(&self, core: &mut Core, n: u8, send: &dyn Fn(&mut Core)) {
         let which = if n == 0 { Which::Sp1 } else { Which::Sp2 };
         let plain = self.panel.status_word().bits();
         let ascii = self.panel.set_points().get(which).ascii;
@@ -452,12 +454,12 @@ impl CanopenDevice for Ap10t {
 
     fn on_rpdo_rtr(&mut self, core: &mut Core, n: u8, reply: &RtrReply, now: Instant) {
         self.ensure_started(core, now);
-        self.remote_answer(core, n, |core| reply.send(core, n));
+        self.remote_answer(core, n, &|core| reply.send(core, n));
     }
 
     fn on_tpdo_rtr(&mut self, core: &mut Core, n: u8, answer: &RtrAnswer, now: Instant) {
         self.ensure_started(core, now);
-        self.remote_answer(core, n, |core| answer.send(core));
+        self.remote_answer(core, n, &|core| answer.send(core));
     }
 
     fn on_sync(&mut self, core: &mut Core, now: Instant) {
