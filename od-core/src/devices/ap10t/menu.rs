@@ -13,7 +13,7 @@
 use crate::time::Instant;
 
 use super::keys::{Key, KEYMAP};
-use super::screen::{blink_on, Row, CELLS};
+use super::screen::{blink_on, number, Row, CELLS};
 
 /// Without a key for this long the menu closes without a change (D-AP-9).
 pub const MENU_TIMEOUT_MS: u64 = 60_000;
@@ -202,9 +202,12 @@ pub struct MenuContext {
 
 /// Label on the left, value on the right (the value wins where they overlap).
 pub fn label_value(label: &str, value: &str) -> Row {
-    let mut row = Row::left(label);
-    let v = Row::right(value);
-    for (c, vc) in row.0.iter_mut().zip(v.0) {
+    overlay(Row::left(label), Row::right(value))
+}
+
+/// `value` over `row`: its lit cells replace the row's.
+fn overlay(mut row: Row, value: Row) -> Row {
+    for (c, vc) in row.0.iter_mut().zip(value.0) {
         if vc.ch != b' ' || vc.dp {
             *c = vc;
         }
@@ -212,7 +215,13 @@ pub fn label_value(label: &str, value: &str) -> Row {
     row
 }
 
-fn decimal(n: u32) -> heapless::String<10> {
+/// `n` in decimal, right-aligned (the menu's numbers have at most five digits).
+fn decimal_row(n: u32) -> Row {
+    number(n as i32, 0).unwrap_or(Row::BLANK)
+}
+
+/// `n` in decimal as text.
+pub fn decimal(n: u32) -> heapless::String<10> {
     let mut s = heapless::String::new();
     let mut buf = [0u8; 10];
     let mut i = buf.len();
@@ -231,11 +240,29 @@ fn decimal(n: u32) -> heapless::String<10> {
     s
 }
 
-fn hex4(n: u16) -> heapless::String<4> {
+/// The hex digit `d` (0..=15) as ASCII.
+const fn hex_digit(d: u8) -> u8 {
+    if d < 10 {
+        b'0' + d
+    } else {
+        b'A' + d - 10
+    }
+}
+
+/// `n` as four hex digits, right-aligned.
+fn hex_row(n: u16) -> Row {
+    let mut row = Row::BLANK;
+    for i in 0..4 {
+        row.0[CELLS - 1 - i].ch = hex_digit((n >> (4 * i)) as u8 & 0xF);
+    }
+    row
+}
+
+/// `n` as four hex digits.
+pub fn hex4(n: u16) -> heapless::String<4> {
     let mut s = heapless::String::new();
     for shift in [12, 8, 4, 0] {
-        let d = (n >> shift) as u8 & 0xF;
-        let _ = s.push(if d < 10 { (b'0' + d) as char } else { (b'A' + d - 10) as char });
+        let _ = s.push(hex_digit((n >> shift) as u8 & 0xF) as char);
     }
     s
 }
@@ -325,33 +352,33 @@ impl Mode {
     /// The two rows of a menu mode at `now` (for [`Mode::Normal`] the panel renders the set
     /// points; here it is blank).
     pub fn screen(self, now: Instant, ctx: &MenuContext, diag: &[DiagEntry]) -> [Row; 2] {
-        match self {
-            Mode::Normal => [Row::BLANK; 2],
-            Mode::PowerUp(_) => [Row::left("8.8.8.8.8.8."); 2],
-            Mode::Info(_) => [label_value("ID", &decimal(ctx.node_id as u32)), Row::right(baud_text(ctx.baud))],
-            Mode::List(item) => {
-                let value = match item {
-                    Item::Id => Row::right(&decimal(ctx.node_id as u32)),
-                    Item::Kbaud => Row::right(baud_text(ctx.baud)),
-                    Item::Code => Row::BLANK,
-                };
-                [Row::left(item.label()), value]
-            }
-            Mode::EditId(e) => [Row::left(Item::Id.label()), e.row(now)],
-            Mode::EditCode(e) => [Row::left(Item::Code.label()), e.row(now)],
-            Mode::Baud(i) => {
-                [Row::left(Item::Kbaud.label()), Row::right(baud_text(BAUD_LIST[i as usize % BAUD_LIST.len()]))]
-            }
+        let baud = |code: u8| Row::right(baud_text(code));
+        let (label, value) = match self {
+            Mode::Normal => return [Row::BLANK; 2],
+            Mode::PowerUp(_) => return [Row::left("8.8.8.8.8.8."); 2],
+            Mode::Info(_) => return [overlay(Row::left("ID"), decimal_row(ctx.node_id as u32)), baud(ctx.baud)],
+            Mode::List(Item::Id) => (Item::Id, decimal_row(ctx.node_id as u32)),
+            Mode::List(Item::Kbaud) => (Item::Kbaud, baud(ctx.baud)),
+            Mode::List(Item::Code) => (Item::Code, Row::BLANK),
+            Mode::EditId(e) => (Item::Id, e.row(now)),
+            Mode::EditCode(e) => (Item::Code, e.row(now)),
+            Mode::Baud(i) => (Item::Kbaud, baud(BAUD_LIST[i as usize % BAUD_LIST.len()])),
             Mode::Diagnosis(n) => {
                 if diag.is_empty() {
                     return [Row::left("no Err"), Row::BLANK];
                 }
                 let i = n as usize % diag.len();
                 let e = diag[i];
-                [label_value(&decimal(i as u32 + 1), &decimal(e.count as u32)), Row::right(&hex4(e.code))]
+                // The error number on the left.
+                let number = decimal_row(i as u32 + 1);
+                let blanks = number.0.iter().take_while(|c| c.ch == b' ').count();
+                let mut left = Row::BLANK;
+                left.0[..CELLS - blanks].copy_from_slice(&number.0[blanks..]);
+                return [overlay(left, decimal_row(e.count as u32)), hex_row(e.code)];
             }
-            Mode::AutoId(_) => [Row::left("New ID"), Row::BLANK],
-        }
+            Mode::AutoId(_) => return [Row::left("New ID"), Row::BLANK],
+        };
+        [Row::left(label.label()), value]
     }
 
     /// Whether the mode's rows change with the blink clock.
