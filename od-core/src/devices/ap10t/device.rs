@@ -130,10 +130,11 @@ impl Ap10t {
         self.panel.next_change(now)
     }
 
-    /// The diagnosis list (CODE 200000) from the error history 1003h: each error code once,
-    /// the latest first, with how often the history holds it (D-AP-23).
-    fn diagnosis(core: &Core) -> heapless::Vec<DiagEntry, 8> {
-        let mut list: heapless::Vec<DiagEntry, 8> = heapless::Vec::new();
+    /// The diagnosis list (CODE 200000) from the error history 1003h, into the panel: each
+    /// error code once, the latest first, with how often the history holds it (D-AP-23).
+    fn load_diagnosis(&mut self, core: &Core) {
+        let list = self.panel.diagnosis_mut();
+        list.clear();
         let n = core.od.value(0x1003, 0).unwrap_or(0).min(8) as u8;
         for sub in 1..=n {
             let code = core.od.value(0x1003, sub).unwrap_or(0) as u16;
@@ -144,7 +145,6 @@ impl Ap10t {
                 }
             }
         }
-        list
     }
 
     /// The panel parameters as the dictionary holds them.
@@ -215,7 +215,7 @@ impl Ap10t {
     pub fn press(&mut self, core: &mut Core, key: Key, now: Instant) {
         self.ensure_started(core, now);
         self.panel.params = Ap10t::params(core);
-        self.panel.set_diagnosis(&Ap10t::diagnosis(core));
+        self.load_diagnosis(core);
         let effect = self.panel.press(key, now);
         self.refresh(core);
         match effect {

@@ -136,36 +136,58 @@ impl Params {
     /// Takes a value written to a panel parameter object (by SDO, a restore, a load at
     /// power-up), checked against the object's range.
     pub fn write(&mut self, index: u16, sub: u8, value: u32) -> Result<(), ParamError> {
-        let flag = |v: u32| if v <= 1 { Ok(v == 1) } else { Err(ParamError::OutOfRange) };
-        let within = |v: u32, lo: u32, hi: u32| {
-            if (lo..=hi).contains(&v) {
-                Ok(v as u8)
-            } else {
-                Err(ParamError::OutOfRange)
-            }
-        };
-        match (index, sub) {
-            (0x2003, 0) => self.key_enable_2003 = flag(value)?,
-            (0x2004, 0) => self.key_enable_2004 = flag(value)?,
-            (0x2005, 1) => self.config_enable = flag(value)?,
-            (0x2005, 2) => self.config_delay_s = within(value, 1, 60)?,
-            (0x5F0A, 1) => self.node_id = within(value, 1, 0x7F)?,
-            (0x5F0A, 3) => self.baud = within(value, 0, 5)?,
-            (0x5F0B, 0) => self.row2_off = flag(value)?,
-            (0x5F11, 0) => self.decimals = within(value, 0, 4)?,
-            (0x5F12, 1) => self.rotated = flag(value)?,
-            (0x5F12, s @ 2..=5) => self.lights.ack_dependent[s as usize - 2] = flag(value)?,
-            (0x5F12, 6) => self.lights.flash_leds = flag(value)?,
-            (0x5F12, 7) => self.lights.backlight_white = flag(value)?,
-            (0x5F12, 8) => self.lights.backlight_red = flag(value)?,
-            (0x5F12, 9) => self.lights.flash_backlight = flag(value)?,
-            (0x5F1C, 0) => self.ack_keys = AckKeys::from_raw(within(value, 0, 2)?).ok_or(ParamError::OutOfRange)?,
-            (0x5F1C, 1) => self.steady_unacknowledged = flag(value)?,
-            _ => return Err(ParamError::NotAPanelParameter),
+        let i = PANEL_OBJECTS.iter().position(|&o| o == (index, sub)).ok_or(ParamError::NotAPanelParameter)?;
+        let (lo, hi) = PANEL_RANGES[i];
+        if !(lo as u32..=hi as u32).contains(&value) {
+            return Err(ParamError::OutOfRange);
+        }
+        let (v, flag) = (value as u8, value == 1);
+        match i {
+            0 => self.key_enable_2003 = flag,
+            1 => self.key_enable_2004 = flag,
+            2 => self.config_enable = flag,
+            3 => self.config_delay_s = v,
+            4 => self.node_id = v,
+            5 => self.baud = v,
+            6 => self.row2_off = flag,
+            7 => self.decimals = v,
+            8 => self.rotated = flag,
+            9..=12 => self.lights.ack_dependent[i - 9] = flag,
+            13 => self.lights.flash_leds = flag,
+            14 => self.lights.backlight_white = flag,
+            15 => self.lights.backlight_red = flag,
+            16 => self.lights.flash_backlight = flag,
+            17 => self.ack_keys = AckKeys::from_raw(v).ok_or(ParamError::OutOfRange)?,
+            _ => self.steady_unacknowledged = flag,
         }
         Ok(())
     }
 }
+
+/// The range of each of [`PANEL_OBJECTS`], (lowest, highest): flags 0..=1, 2005h sub 2 the key
+/// enable time 1..=60 s, 5F0Ah sub 1 the node-ID 1..=127, 5F0Ah sub 3 the baud rate 0..=5,
+/// 5F11h 0..=4 decimal places, 5F1Ch sub 0 0..=2.
+const PANEL_RANGES: [(u8, u8); 19] = [
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (1, 60),
+    (1, 0x7F),
+    (0, 5),
+    (0, 1),
+    (0, 4),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 2),
+    (0, 1),
+];
 
 impl Default for Params {
     fn default() -> Self {
@@ -261,6 +283,11 @@ impl Panel {
         for e in entries.iter().take(self.diag.capacity()) {
             let _ = self.diag.push(*e);
         }
+    }
+
+    /// The diagnosis list itself, for the device to fill in place.
+    pub(crate) fn diagnosis_mut(&mut self) -> &mut heapless::Vec<DiagEntry, 8> {
+        &mut self.diag
     }
 
     /// Auto-ID (manual 4.6.2): a write of `new_id` to 5F0Ah sub 2 arrived; "New ID" shows until
