@@ -293,60 +293,76 @@ impl Mode {
 
     /// A key pressed in a menu mode (not [`Mode::Normal`], whose keys the panel handles):
     /// the next mode and what the device must do.
-    pub fn press(self, key: Key, ctx: &MenuContext) -> (Mode, Option<Effect>) {
+    pub fn press(mut self, key: Key, ctx: &MenuContext) -> (Mode, Option<Effect>) {
+        let effect = self.step(key, ctx);
+        (self, effect)
+    }
+
+    /// [`Mode::press`] in place: the mode becomes the next one; returns what the device must do.
+    pub(crate) fn step(&mut self, key: Key, ctx: &MenuContext) -> Option<Effect> {
         let m = KEYMAP;
-        match self {
-            Mode::Normal | Mode::PowerUp(_) => (self, None),
-            Mode::Info(_) if key == m.parameterize && ctx.config_enable => (Mode::List(Item::Id), None),
-            Mode::Info(_) => (self, None),
-            Mode::AutoId(id) if key == m.auto_id => (Mode::Normal, Some(Effect::AutoIdAdopted(id))),
-            Mode::AutoId(_) => (self, None),
-            Mode::List(_) if key == m.back => (Mode::Normal, None),
-            Mode::List(item) if key == m.value_input => (Mode::List(item.next()), None),
-            Mode::List(item) if key == m.confirm => (
-                match item {
-                    Item::Id => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
-                    Item::Kbaud => Mode::Baud(BAUD_LIST.iter().position(|&b| b == ctx.baud).unwrap_or(0) as u8),
-                    Item::Code => Mode::EditCode(Entry::new(0, 6)),
-                },
-                None,
-            ),
-            Mode::List(_) => (self, None),
-            Mode::EditId(_) | Mode::Baud(_) | Mode::EditCode(_) | Mode::Diagnosis(_) if key == m.back => {
-                let item = match self {
-                    Mode::EditId(_) => Item::Id,
-                    Mode::Baud(_) => Item::Kbaud,
-                    _ => Item::Code,
-                };
-                (Mode::List(item), None)
+        if let Mode::EditId(e) | Mode::EditCode(e) = self {
+            if key == m.digit_select {
+                e.select_left();
+                return None;
             }
-            Mode::EditId(mut e) | Mode::EditCode(mut e) if key == m.digit_select || key == m.value_input => {
-                if key == m.digit_select {
-                    e.select_left();
-                } else {
-                    e.count_up();
-                }
-                (if matches!(self, Mode::EditId(_)) { Mode::EditId(e) } else { Mode::EditCode(e) }, None)
+            if key == m.value_input {
+                e.count_up();
+                return None;
             }
-            Mode::EditId(e) if key == m.confirm => match e.value() {
-                v @ 1..=127 => (Mode::List(Item::Id), Some(Effect::SetNodeId(v as u8))),
-                // Out of 1..=127: not taken, the entry stays for a correction.
-                _ => (self, None),
-            },
-            Mode::EditCode(e) if key == m.confirm => match e.value() {
-                CODE_RESET_ALL => (Mode::Normal, Some(Effect::FactoryReset(ResetScope::All))),
-                CODE_RESET_ALL_EXCEPT_BUS => (Mode::Normal, Some(Effect::FactoryReset(ResetScope::AllExceptBus))),
-                CODE_RESET_BUS => (Mode::Normal, Some(Effect::FactoryReset(ResetScope::BusOnly))),
-                CODE_DIAGNOSIS => (Mode::Diagnosis(0), None),
-                _ => (Mode::List(Item::Code), None),
-            },
-            Mode::Baud(i) if key == m.value_input => (Mode::Baud((i + 1) % BAUD_LIST.len() as u8), None),
-            Mode::Baud(i) if key == m.confirm => {
-                (Mode::List(Item::Kbaud), Some(Effect::SetBaud(BAUD_LIST[i as usize % BAUD_LIST.len()])))
-            }
-            Mode::Diagnosis(n) if key == m.value_input => (Mode::Diagnosis(n.wrapping_add(1)), None),
-            _ => (self, None),
         }
+        let mut effect = None;
+        let mut set = |e: Effect| effect = Some(e);
+        *self = match *self {
+            Mode::Info(_) if key == m.parameterize && ctx.config_enable => Mode::List(Item::Id),
+            Mode::AutoId(id) if key == m.auto_id => {
+                set(Effect::AutoIdAdopted(id));
+                Mode::Normal
+            }
+            Mode::List(_) if key == m.back => Mode::Normal,
+            Mode::List(item) if key == m.value_input => Mode::List(item.next()),
+            Mode::List(Item::Id) if key == m.confirm => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
+            Mode::List(Item::Kbaud) if key == m.confirm => {
+                Mode::Baud(BAUD_LIST.iter().position(|&b| b == ctx.baud).unwrap_or(0) as u8)
+            }
+            Mode::List(Item::Code) if key == m.confirm => Mode::EditCode(Entry::new(0, 6)),
+            Mode::EditId(_) if key == m.back => Mode::List(Item::Id),
+            Mode::Baud(_) if key == m.back => Mode::List(Item::Kbaud),
+            Mode::EditCode(_) | Mode::Diagnosis(_) if key == m.back => Mode::List(Item::Code),
+            Mode::EditId(e) if key == m.confirm => match e.value() {
+                v @ 1..=127 => {
+                    set(Effect::SetNodeId(v as u8));
+                    Mode::List(Item::Id)
+                }
+                // Out of 1..=127: not taken, the entry stays for a correction.
+                _ => return None,
+            },
+            Mode::EditCode(e) if key == m.confirm => {
+                let scope = match e.value() {
+                    CODE_RESET_ALL => ResetScope::All,
+                    CODE_RESET_ALL_EXCEPT_BUS => ResetScope::AllExceptBus,
+                    CODE_RESET_BUS => ResetScope::BusOnly,
+                    CODE_DIAGNOSIS => {
+                        *self = Mode::Diagnosis(0);
+                        return None;
+                    }
+                    _ => {
+                        *self = Mode::List(Item::Code);
+                        return None;
+                    }
+                };
+                set(Effect::FactoryReset(scope));
+                Mode::Normal
+            }
+            Mode::Baud(i) if key == m.value_input => Mode::Baud((i + 1) % BAUD_LIST.len() as u8),
+            Mode::Baud(i) if key == m.confirm => {
+                set(Effect::SetBaud(BAUD_LIST[i as usize % BAUD_LIST.len()]));
+                Mode::List(Item::Kbaud)
+            }
+            Mode::Diagnosis(n) if key == m.value_input => Mode::Diagnosis(n.wrapping_add(1)),
+            _ => return None,
+        };
+        effect
     }
 
     /// The two rows of a menu mode at `now` (for [`Mode::Normal`] the panel renders the set

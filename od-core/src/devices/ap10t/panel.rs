@@ -321,16 +321,17 @@ impl Panel {
     /// A key was pressed (debounced edge) at `now`.
     pub fn press(&mut self, key: Key, now: Instant) -> Option<Effect> {
         self.held = self.held.with(key, true);
-        let mode = self.mode(now);
+        let mut mode = self.mode(now);
         self.last_key = now;
-        let (next, effect) = match mode {
-            Mode::Normal => self.top_level(key, now),
+        let effect = match mode {
             // Another key while node-ID and baud rate show: back to the top level, and the
             // key does what it does there.
-            Mode::Info(_) if key != KEYMAP.parameterize => self.top_level(key, now),
-            _ => mode.press(key, &self.params.menu()),
+            Mode::Normal | Mode::Info(_) if mode == Mode::Normal || key != KEYMAP.parameterize => {
+                self.top_level(&mut mode, key, now)
+            }
+            _ => mode.step(key, &self.params.menu()),
         };
-        self.mode = next;
+        self.mode = mode;
         effect
     }
 
@@ -341,15 +342,16 @@ impl Panel {
 
     /// A key at the top level: acknowledgement first, where the key acknowledges and a set
     /// point waits for it (D-AP-8), else the parameterization key shows node-ID and baud rate.
-    fn top_level(&mut self, key: Key, now: Instant) -> (Mode, Option<Effect>) {
+    fn top_level(&mut self, mode: &mut Mode, key: Key, now: Instant) -> Option<Effect> {
         let p = &self.params;
+        *mode = Mode::Normal;
         if p.ack_keys.acknowledges(key) && p.enabled(key) && self.sps.acknowledge() {
-            return (Mode::Normal, Some(Effect::Acknowledged));
+            return Some(Effect::Acknowledged);
         }
         if key == KEYMAP.parameterize {
-            return (Mode::Info(now.add_millis(p.config_delay_s.max(1) as u64 * 1000)), None);
+            *mode = Mode::Info(now.add_millis(p.config_delay_s.max(1) as u64 * 1000));
         }
-        (Mode::Normal, None)
+        None
     }
 
     /// The status word 5F19h (bit 9 = 0).

@@ -129,18 +129,6 @@ impl Row {
     }
 }
 
-/// Decimal digits of `n` (at least `min` of them, zero-padded), least significant first.
-fn digits(mut n: u32, min: usize) -> ([u8; 10], usize) {
-    let mut d = [0u8; 10];
-    let mut len = 0;
-    while len < 10 && (n > 0 || len < min.max(1)) {
-        d[len] = b'0' + (n % 10) as u8;
-        n /= 10;
-        len += 1;
-    }
-    (d, len)
-}
-
 /// `value` with `decimals` places, right-aligned, if it fits six cells (sign included).
 pub fn number(value: i32, decimals: u8) -> Option<Row> {
     let (row, fits) = digits_row(value, decimals);
@@ -151,15 +139,18 @@ pub fn number(value: i32, decimals: u8) -> Option<Row> {
 /// when it did not, the row holds the six lowest digits without the sign.
 fn digits_row(value: i32, decimals: u8) -> (Row, bool) {
     let decimals = decimals.min(4) as usize;
-    let (d, len) = digits(value.unsigned_abs(), decimals + 1);
-    let neg = value < 0;
+    let mut n = value.unsigned_abs();
     let mut row = Row::BLANK;
-    for (i, &ch) in d[..len.min(CELLS)].iter().enumerate() {
-        row.0[CELLS - 1 - i] = Cell { ch, dp: decimals > 0 && i == decimals };
+    // Cells from the right: every digit, at least one before the point.
+    let mut i = 0;
+    while i < CELLS && (n > 0 || i <= decimals) {
+        row.0[CELLS - 1 - i] = Cell { ch: b'0' + (n % 10) as u8, dp: decimals > 0 && i == decimals };
+        n /= 10;
+        i += 1;
     }
-    let fits = len + neg as usize <= CELLS;
-    if neg && fits {
-        row.0[CELLS - 1 - len].ch = b'-';
+    let fits = n == 0 && (value >= 0 || i < CELLS);
+    if value < 0 && fits {
+        row.0[CELLS - 1 - i].ch = b'-';
     }
     (row, fits)
 }
