@@ -119,9 +119,14 @@ pub fn backlight(cfg: &LightConfig, now: Instant) -> Backlight {
 /// When the LEDs or the backlight next change by themselves after `now` (`None`: not before an
 /// input changes).
 pub fn next_change(cfg: &LightConfig, sps: &SetPoints, now: Instant) -> Option<Instant> {
+    blinks(cfg, sps).then(|| next_blink_edge(now))
+}
+
+/// Whether a lit LED element or the lit backlight blinks (changes with the blink clock).
+pub(crate) fn blinks(cfg: &LightConfig, sps: &SetPoints) -> bool {
     let led_blinks = elements(cfg, sps).iter().any(|e| e.on && e.blinks);
     let light_blinks = cfg.flash_backlight && (cfg.backlight_white || cfg.backlight_red);
-    (led_blinks || light_blinks).then(|| next_blink_edge(now))
+    led_blinks || light_blinks
 }
 
 #[cfg(test)]

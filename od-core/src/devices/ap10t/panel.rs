@@ -400,25 +400,24 @@ impl Panel {
         let p = &self.params;
         let mode = self.mode(now);
         let blink = match mode {
+            Mode::PowerUp(since) => {
+                // The next quarter (an LED element's turn), at the latest the end of the test.
+                // The display test lasts seconds: its elapsed time fits 32 bits (a 64-bit
+                // division is a library routine of about 1 KiB on the Cortex-M3).
+                let quarter = POWER_UP_MS * 250;
+                let elapsed = now.micros_since(since).min(u32::MAX as u64) as u32;
+                let step = (elapsed / quarter as u32) as u64 + 1;
+                return Some(since.add_micros(step * quarter));
+            }
             Mode::Normal => {
                 let style = p.style(&self.sps);
                 set_point_blinks(&self.sps.sp[0], style) || (!p.row2_off && set_point_blinks(&self.sps.sp[1], style))
             }
             _ => mode.blinks(),
         };
-        let mut next = mode.deadline(self.last_key);
-        if let Mode::PowerUp(since) = mode {
-            let quarter = POWER_UP_MS * 250;
-            // The power-up display lasts seconds: its elapsed time fits 32 bits (a 64-bit
-            // division is a library routine of about 1 KiB on the Cortex-M3).
-            let elapsed = now.micros_since(since).min(u32::MAX as u64) as u32;
-            let step = (elapsed / quarter as u32) as u64 + 1;
-            next = earliest(next, Some(since.add_micros(step * quarter)));
-        } else {
-            next = earliest(next, leds::next_change(&p.lights, &self.sps, now));
-        }
-        if blink {
-            next = earliest(next, Some(next_blink_edge(now)));
+        let next = mode.deadline(self.last_key);
+        if blink || leds::blinks(&p.lights, &self.sps) {
+            return earliest(next, Some(next_blink_edge(now)));
         }
         next
     }
