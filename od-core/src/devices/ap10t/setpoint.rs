@@ -10,7 +10,7 @@
 //! acknowledged.
 
 use super::keys::KeySet;
-use super::words::{cw, ControlWord, StatusWord};
+use super::words::{ControlWord, StatusWord};
 
 /// Which set point: 1 (upper row, RPDO1/TPDO1) or 2 (lower row, RPDO2/TPDO2).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -84,23 +84,22 @@ impl SetPoints {
 
     /// Takes the 8 data bytes of RPDO1 (`Sp1`) or RPDO2 (`Sp2`).
     pub fn receive(&mut self, which: Which, data: &[u8; 8]) {
-        let w = u16::from_le_bytes([data[6], data[7]]);
-        let ascii = w & cw::ASCII != 0;
+        let control = ControlWord::from_le_bytes([data[6], data[7]]);
         let mut bytes = [0u8; 6];
         bytes.copy_from_slice(&data[..6]);
-        for (i, (valid, ack)) in [(cw::SP1_VALID, cw::SP1_ACK), (cw::SP2_VALID, cw::SP2_ACK)].into_iter().enumerate() {
+        let valid = [control.sp1_valid, control.sp2_valid];
+        let ack = [control.sp1_ack, control.sp2_ack];
+        for i in 0..2 {
             let sp = &mut self.sp[i];
-            let valid = w & valid != 0;
-            let mut changed = !sp.valid && valid;
+            let mut changed = !sp.valid && valid[i];
             if i == which.index() {
-                changed |= sp.differs(&bytes, ascii);
+                changed |= sp.differs(&bytes, control.ascii);
                 sp.bytes = bytes;
-                sp.ascii = ascii;
+                sp.ascii = control.ascii;
             }
-            sp.valid = valid;
-            sp.acknowledged = valid && (w & ack != 0 || (sp.acknowledged && !changed));
+            sp.valid = valid[i];
+            sp.acknowledged = sp.valid && (ack[i] || (sp.acknowledged && !changed));
         }
-        let control = ControlWord::from_bits(w);
         self.control = control;
     }
 
