@@ -238,7 +238,6 @@ impl<const N: usize> Bits<N> {
         }
         self
     }
-
 }
 
 /// HT1621 command codes.
