@@ -13,7 +13,7 @@
 use crate::time::Instant;
 
 use super::keys::{Key, KEYMAP};
-use super::screen::{blink_on, number, Row, CELLS};
+use super::screen::{blink_on, number, Cell, Row, CELLS};
 
 /// Without a key for this long the menu closes without a change (D-AP-9).
 pub const MENU_TIMEOUT_MS: u64 = 60_000;
@@ -152,11 +152,10 @@ impl Entry {
         let mut row = Row::BLANK;
         let len = self.len as usize;
         for i in 0..len {
-            let cell = &mut row.0[CELLS - len + i];
-            cell.ch = b'0' + self.digits[i];
-            if i == len - 1 - self.pos as usize && !blink_on(now) {
-                cell.ch = b' ';
-            }
+            row.0[CELLS - len + i].ch = b'0' + self.digits[i];
+        }
+        if !blink_on(now) {
+            row.0[CELLS - 1 - self.pos as usize] = Cell::BLANK;
         }
         row
     }

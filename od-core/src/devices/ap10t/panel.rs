@@ -236,6 +236,14 @@ impl core::fmt::Display for View {
     }
 }
 
+/// The quarter of the power-up display test (started at `since`) that `now` is in: 0..=3 while
+/// it runs, the LED element lit. The test lasts a second: its elapsed time fits 32 bits (a
+/// 64-bit division is a library routine of about 1 KiB on the Cortex-M3).
+fn power_up_quarter(since: Instant, now: Instant) -> u32 {
+    let elapsed = now.micros_since(since).min(u32::MAX as u64) as u32;
+    elapsed / (POWER_UP_MS as u32 * 250)
+}
+
 /// Set points, keys and menu of one AP10T.
 #[derive(Clone, PartialEq, Eq, Debug)]
 pub struct Panel {
@@ -382,8 +390,8 @@ impl Panel {
         };
         let (leds, backlight) = match mode {
             Mode::PowerUp(since) => {
-                let step = now.micros_since(since) / (POWER_UP_MS * 250);
-                let on = |i: u64| step == i;
+                let step = power_up_quarter(since, now);
+                let on = |i: u32| step == i;
                 (
                     Leds { left: Bicolour { green: on(0), red: on(1) }, right: Bicolour { green: on(2), red: on(3) } },
                     Backlight { white: true, red: true },
@@ -402,12 +410,8 @@ impl Panel {
         let blink = match mode {
             Mode::PowerUp(since) => {
                 // The next quarter (an LED element's turn), at the latest the end of the test.
-                // The display test lasts seconds: its elapsed time fits 32 bits (a 64-bit
-                // division is a library routine of about 1 KiB on the Cortex-M3).
-                let quarter = POWER_UP_MS * 250;
-                let elapsed = now.micros_since(since).min(u32::MAX as u64) as u32;
-                let step = (elapsed / quarter as u32) as u64 + 1;
-                return Some(since.add_micros(step * quarter));
+                let next = power_up_quarter(since, now) as u64 + 1;
+                return Some(since.add_micros(next * POWER_UP_MS * 250));
             }
             Mode::Normal => {
                 let style = p.style(&self.sps);
