@@ -270,12 +270,8 @@ impl Mode {
     /// The mode in effect at `now`: an expired display test, info display or idle menu is back
     /// at the top level. `last_key`: the last key press.
     pub fn at(self, now: Instant, last_key: Instant) -> Mode {
-        match self {
-            Mode::Normal | Mode::AutoId(_) => self,
-            Mode::PowerUp(since) if now.micros_since(since) >= POWER_UP_MS * 1000 => Mode::Normal,
-            Mode::PowerUp(_) => self,
-            Mode::Info(until) if now >= until => Mode::Normal,
-            _ if now.micros_since(last_key) >= MENU_TIMEOUT_MS * 1000 => Mode::Normal,
+        match self.deadline(last_key) {
+            Some(end) if now >= end => Mode::Normal,
             _ => self,
         }
     }
