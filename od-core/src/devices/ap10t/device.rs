@@ -189,7 +189,7 @@ impl Ap10t {
     /// points the TPDOs carry (5F1Dh).
     fn refresh(&self, core: &mut Core) {
         let od = &mut core.od;
-        od.set_value(0x5F19, 0, self.panel.status_word().bits() as u32);
+        od.set_value(0x5F19, 0, self.panel.status_bits() as u32);
         for (which, lsb, msb) in [(Which::Sp1, 3, 4), (Which::Sp2, 1, 2)] {
             let b = self.panel.set_points().get(which).bytes;
             od.set_value(0x5F1D, lsb, u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
@@ -276,7 +276,7 @@ impl Ap10t {
     #[inline(never)]
     fn remote_answer(&self, core: &mut Core, n: u8, send: &dyn Fn(&mut Core)) {
         let which = if n == 0 { Which::Sp1 } else { Which::Sp2 };
-        let plain = self.panel.status_word().bits();
+        let plain = self.panel.status_bits();
         let ascii = self.panel.set_points().get(which).ascii;
         core.od.set_value(0x5F19, 0, (plain | if ascii { sw::ASCII } else { 0 }) as u32);
         send(core);
@@ -348,9 +348,8 @@ impl Device for Ap10t {
                 core.od.set_value(0x6200, 0, value);
             }
             hooks::PANEL => {
-                let mut p = self.panel.params;
-                p.write(e.index, e.sub, value).map_err(|_| Abort::INVALID_VALUE)?;
-                self.panel.params = p;
+                // A refused value leaves the parameters as they were.
+                self.panel.params.write(e.index, e.sub, value).map_err(|_| Abort::INVALID_VALUE)?;
             }
             hooks::EXTERNAL_HEARTBEAT => {
                 if e.sub == 1 && (1..10).contains(&value) {

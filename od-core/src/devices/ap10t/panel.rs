@@ -367,6 +367,11 @@ impl Panel {
         self.sps.status_word(self.held)
     }
 
+    /// [`Panel::status_word`] as its 16 bits.
+    pub fn status_bits(&self) -> u16 {
+        self.sps.status_bits(self.held)
+    }
+
     /// TPDO1 (`Sp1`) / TPDO2 (`Sp2`) data; `remote`: answering a remote request.
     pub fn tpdo(&self, which: Which, remote: bool) -> [u8; 8] {
         self.sps.tpdo(which, self.held, remote)
