@@ -361,7 +361,8 @@ impl Mode {
     }
 
     /// The two rows of a menu mode at `now` (for [`Mode::Normal`] the panel renders the set
-    /// points; here it is blank).
+    /// points; here it is blank). The diagnosis shows the first eight entries of `diag` at
+    /// most, as many as the panel keeps.
     pub fn screen(self, now: Instant, ctx: &MenuContext, diag: &[DiagEntry]) -> [Row; 2] {
         let baud = |code: u8| Row::right(baud_text(code));
         let (label, value) = match self {
@@ -375,17 +376,16 @@ impl Mode {
             Mode::EditCode(e) => (Item::Code, e.row(now)),
             Mode::Baud(i) => (Item::Kbaud, baud(BAUD_LIST[i as usize % BAUD_LIST.len()])),
             Mode::Diagnosis(n) => {
+                // The panel keeps eight entries: the error number is one digit.
+                let diag = &diag[..diag.len().min(8)];
                 if diag.is_empty() {
                     return [Row::left("no Err"), Row::BLANK];
                 }
                 let i = n as usize % diag.len();
                 let e = diag[i];
-                // The error number on the left.
-                let number = decimal_row(i as u32 + 1);
-                let blanks = number.0.iter().take_while(|c| c.ch == b' ').count();
-                let mut left = Row::BLANK;
-                left.0[..CELLS - blanks].copy_from_slice(&number.0[blanks..]);
-                return [overlay(left, decimal_row(e.count as u32)), hex_row(e.code)];
+                let mut number = Row::BLANK;
+                number.0[0].ch = b'1' + i as u8;
+                return [overlay(number, decimal_row(e.count as u32)), hex_row(e.code)];
             }
             Mode::AutoId(_) => return [Row::left("New ID"), Row::BLANK],
         };
