@@ -203,12 +203,8 @@ impl Ap10t {
             Which::Sp1 => (3, 4),
             Which::Sp2 => (1, 2),
         };
-        let v = |i, s| core.od.value(i, s).unwrap_or(0);
-        let mut data = [0u8; 8];
-        data[..4].copy_from_slice(&v(0x5F16, lsb).to_le_bytes());
-        data[4..6].copy_from_slice(&(v(0x5F16, msb) as u16).to_le_bytes());
-        data[6..].copy_from_slice(&(v(0x5F0C, 0) as u16).to_le_bytes());
-        data
+        let v = |i, s| core.od.value(i, s).unwrap_or(0) as u64;
+        (v(0x5F16, lsb) | (v(0x5F16, msb) & 0xFFFF) << 32 | (v(0x5F0C, 0) & 0xFFFF) << 48).to_le_bytes()
     }
 
     /// A key was pressed (its debounced edge) at `now`.
