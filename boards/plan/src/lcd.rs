@@ -412,6 +412,29 @@ mod tests {
     }
 
     #[test]
+    fn from_screen_lays_cells_out_as_screen_physical() {
+        use od_core::devices::ap10t::screen::{Row as TextRow, Screen as TextScreen};
+        let rows = [
+            [TextRow::right("-123.45"), TextRow::left("AP10TX")],
+            [TextRow::left("1.2.3.4.5.6."), TextRow::right("FULLL")],
+            [TextRow::left(".K.W"), TextRow::right("0.05")],
+        ];
+        for rows in rows {
+            for rotated in [false, true] {
+                let screen = TextScreen { rows, rotated };
+                let mut want = Screen::default();
+                for (p, cells) in screen.physical().iter().enumerate() {
+                    for (k, c) in cells.iter().enumerate() {
+                        let g = glyph(c.ch).unwrap_or(D);
+                        want.rows[p][k] = if c.upside_down { upside_down(g) } else { g } | if c.dp { DP } else { 0 };
+                    }
+                }
+                assert_eq!(from_screen(&screen), want, "{rows:?} rotated {rotated}");
+            }
+        }
+    }
+
+    #[test]
     fn the_ap10t_screen_on_the_segments() {
         use od_core::devices::ap10t::screen::{Row as TextRow, Screen as TextScreen};
         let mut screen = TextScreen { rows: [TextRow::right("123.45"), TextRow::left("AP10TX")], rotated: false };
