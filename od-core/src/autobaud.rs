@@ -39,18 +39,16 @@ impl Scan {
 
     /// Runs the dwell timer; returns the next candidate when it is time to switch.
     pub fn poll(&mut self, now: Instant) -> Option<Bitrate> {
-        match self.until {
-            None => {
-                self.until = Some(now.add_millis(DWELL_MS));
-                None
-            }
-            Some(t) if now >= t => {
-                self.index = (self.index + 1) % self.rates.len();
-                self.until = Some(now.add_millis(DWELL_MS));
-                Some(self.rate())
-            }
-            Some(_) => None,
+        if self.until.is_some_and(|t| now < t) {
+            return None;
         }
+        let first = self.until.is_none();
+        self.until = Some(now.add_millis(DWELL_MS));
+        if first {
+            return None;
+        }
+        self.index = (self.index + 1) % self.rates.len();
+        Some(self.rate())
     }
 
     /// When [`Scan::poll`] must next run.

@@ -58,6 +58,35 @@ pub const DP: u8 = 1 << 7;
 
 /// The 7-segment shape of an ASCII character, `None` if a 7-segment digit cannot show it.
 pub const fn glyph(c: u8) -> Option<u8> {
+    // One table lookup (the font as a `match` compiles to a few hundred bytes of branches).
+    if c < FONT_FIRST || c >= FONT_FIRST + FONT.len() as u8 {
+        return None;
+    }
+    match FONT[(c - FONT_FIRST) as usize] {
+        NO_GLYPH => None,
+        g => Some(g),
+    }
+}
+
+/// The first character [`FONT`] has a row for (blank).
+const FONT_FIRST: u8 = b' ';
+/// A [`FONT`] row for a character with no shape (no glyph lights the point).
+const NO_GLYPH: u8 = DP;
+/// [`shape`] of every character from blank to 'z'.
+const FONT: [u8; (b'z' - b' ' + 1) as usize] = {
+    let mut t = [NO_GLYPH; (b'z' - b' ' + 1) as usize];
+    let mut i = 0;
+    while i < t.len() {
+        if let Some(g) = shape(FONT_FIRST + i as u8) {
+            t[i] = g;
+        }
+        i += 1;
+    }
+    t
+};
+
+/// The font as the shapes are drawn; [`glyph`] reads it from [`FONT`].
+const fn shape(c: u8) -> Option<u8> {
     Some(match c {
         b'0' | b'O' => A | B | C | D | E | F,
         b'1' | b'I' => B | C,
@@ -144,24 +173,29 @@ pub struct Screen {
 /// A character turned by 180°: the segments swap top and bottom, left and right (a<->d,
 /// b<->e, c<->f; g stays).
 pub const fn upside_down(seg: u8) -> u8 {
-    const fn swap(s: u8, x: u8, y: u8) -> u8 {
-        (if s & x != 0 { y } else { 0 }) | (if s & y != 0 { x } else { 0 })
-    }
-    swap(seg, A, D) | swap(seg, B, E) | swap(seg, C, F) | (seg & (G | DP))
+    // a, b, c are bits 0-2 and d, e, f bits 3-5: the turn swaps the two groups of three.
+    (seg & (A | B | C)) << 3 | (seg >> 3) & (A | B | C) | seg & (G | DP)
 }
 
 /// What the board's LCD shows of the AP10T's screen (`od_core::devices::ap10t::Screen`, the
 /// rows as the reader reads them): each cell as its glyph, upside down on a display mounted
-/// turned by 180° (`Screen::physical`), its decimal point lit. A character the 7-segment
-/// digits cannot draw (K, M, W, X ...; the screen model keeps them, D-AP-5) is shown as
-/// segment d alone, a low bar that says "something is here".
+/// turned by 180° (as `Screen::physical` lays it out: the rows swapped, each read right to
+/// left, a point on the digit of the character after it), its decimal point lit. A character
+/// the 7-segment digits cannot draw (K, M, W, X ...; the screen model keeps them, D-AP-5) is
+/// shown as segment d alone, a low bar that says "something is here".
 pub fn from_screen(screen: &od_core::devices::ap10t::Screen) -> Screen {
     let mut out = Screen::default();
-    for (row, cells) in out.rows.iter_mut().zip(screen.physical()) {
-        for (seg, cell) in row.iter_mut().zip(cells) {
-            let g = glyph(cell.ch).unwrap_or(D);
-            let g = if cell.upside_down { upside_down(g) } else { g };
-            *seg = g | if cell.dp { DP } else { 0 };
+    for (p, row) in out.rows.iter_mut().enumerate() {
+        for (k, seg) in row.iter_mut().enumerate() {
+            let (g, dp) = if screen.rotated {
+                let cells = &screen.rows[1 - p].0;
+                let dp = k + 1 < DIGITS && cells[DIGITS - 2 - k].dp;
+                (upside_down(glyph(cells[DIGITS - 1 - k].ch).unwrap_or(D)), dp)
+            } else {
+                let c = screen.rows[p].0[k];
+                (glyph(c.ch).unwrap_or(D), c.dp)
+            };
+            *seg = g | if dp { DP } else { 0 };
         }
     }
     out
@@ -204,19 +238,6 @@ impl<const N: usize> Bits<N> {
         }
         self
     }
-
-    /// Appends the `count` low bits of `value`, least significant first.
-    const fn lsb_first(mut self, value: u32, count: u32) -> Self {
-        let mut i = 0;
-        while i < count {
-            if value >> i & 1 != 0 {
-                self.bytes[self.len / 8] |= 0x80 >> (self.len % 8);
-            }
-            self.len += 1;
-            i += 1;
-        }
-        self
-    }
 }
 
 /// HT1621 command codes.
@@ -250,14 +271,18 @@ pub const FRAME_LEN: usize = 18;
 /// The transfer that writes `screen`: mode `101`, address 0, the 32 nibbles (137 bits), then 7
 /// pad bits that repeat the nibbles of addresses 0 and 1 where the address wrapped to.
 pub fn frame(screen: &Screen) -> [u8; FRAME_LEN] {
+    const HEADER_BITS: usize = 9;
     let ram = ram(screen);
-    let mut bits = Bits::<FRAME_LEN>::new().msb_first(0b101, 3).msb_first(0, 6);
-    for &nibble in &ram {
-        bits = bits.lsb_first(nibble as u32, 4);
+    let mut bytes = [0u8; FRAME_LEN];
+    bytes[0] = 0b1010_0000;
+    // Data bit j is bit j % 4 of the nibble at address j / 4 (wrapping after 31).
+    for j in 0..FRAME_LEN * 8 - HEADER_BITS {
+        if ram[j / 4 % RAM_NIBBLES] >> (j % 4) & 1 != 0 {
+            let pos = HEADER_BITS + j;
+            bytes[pos / 8] |= 0x80 >> (pos % 8);
+        }
     }
-    bits = bits.lsb_first(ram[0] as u32, 4).lsb_first(ram[1] as u32, 3);
-    debug_assert!(bits.len == FRAME_LEN * 8);
-    bits.bytes
+    bytes
 }
 
 #[cfg(test)]
@@ -291,6 +316,13 @@ mod tests {
             written += 1;
         }
         (mode, addr, ram, written)
+    }
+
+    #[test]
+    fn the_font_table_is_the_font() {
+        for c in 0..=u8::MAX {
+            assert_eq!(glyph(c), shape(c), "{c:#04x}");
+        }
     }
 
     #[test]
@@ -377,6 +409,29 @@ mod tests {
         // Bit 136 is address 31's D3, then the pad: address 0 again (1,0,0,1) and three bits of
         // address 1 (0,0,0).
         assert_eq!(f[17], 0b0100_1000);
+    }
+
+    #[test]
+    fn from_screen_lays_cells_out_as_screen_physical() {
+        use od_core::devices::ap10t::screen::{Row as TextRow, Screen as TextScreen};
+        let rows = [
+            [TextRow::right("-123.45"), TextRow::left("AP10TX")],
+            [TextRow::left("1.2.3.4.5.6."), TextRow::right("FULLL")],
+            [TextRow::left(".K.W"), TextRow::right("0.05")],
+        ];
+        for rows in rows {
+            for rotated in [false, true] {
+                let screen = TextScreen { rows, rotated };
+                let mut want = Screen::default();
+                for (p, cells) in screen.physical().iter().enumerate() {
+                    for (k, c) in cells.iter().enumerate() {
+                        let g = glyph(c.ch).unwrap_or(D);
+                        want.rows[p][k] = if c.upside_down { upside_down(g) } else { g } | if c.dp { DP } else { 0 };
+                    }
+                }
+                assert_eq!(from_screen(&screen), want, "{rows:?} rotated {rotated}");
+            }
+        }
     }
 
     #[test]

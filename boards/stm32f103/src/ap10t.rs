@@ -10,7 +10,7 @@
 //! the screen model only.
 
 use board_plan::keys::{Change, Debouncer};
-use board_plan::lcd::{frame, Screen, INIT};
+use board_plan::lcd::{frame, from_screen, Screen, FRAME_LEN, INIT};
 use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
 use embassy_stm32::mode::Blocking;
 use embassy_stm32::peripherals::{PB12, PB13, PB15, SPI2};
@@ -123,8 +123,8 @@ impl Leds {
 /// How often the keys are scanned, in microseconds (the debouncer counts in these steps).
 pub const KEY_SCAN_US: u32 = 1_000;
 
-/// The front panel as the device's [`Io`]: key edges to the device, its view to the LCD and the
-/// LEDs (rewritten only when the view changed).
+/// The front panel as the device's [`Io`]: key edges to the device, its view to the LCD (the
+/// driver's RAM rewritten only when the frame for it changed) and the LEDs.
 pub struct Panel {
     /// The LCD driver.
     pub lcd: Lcd,
@@ -132,7 +132,8 @@ pub struct Panel {
     pub keys: Keys,
     /// The LEDs.
     pub leds: Leds,
-    shown: Option<View>,
+    /// The frame the LCD driver last took.
+    shown: Option<[u8; FRAME_LEN]>,
 }
 
 impl Panel {
@@ -161,15 +162,14 @@ impl Io<Ap10t> for Panel {
     }
 
     fn show(&mut self, device: &Ap10t, _core: &Core, now: Instant) -> Option<Instant> {
-        let view = device.view(now);
-        if self.shown != Some(view) {
-            let screen = board_plan::lcd::from_screen(&view.screen);
-            if self.lcd.show(&screen).is_ok() {
-                self.shown = Some(view);
-            }
-            self.leds.set(false, view.leds.left.green, view.leds.left.red);
-            self.leds.set(true, view.leds.right.green, view.leds.right.red);
+        let View { screen, leds, .. } = device.view(now);
+        // Comparing the 18 bytes for the driver is less code than comparing views.
+        let bytes = frame(&from_screen(&screen));
+        if self.shown != Some(bytes) && self.lcd.write(&bytes).is_ok() {
+            self.shown = Some(bytes);
         }
+        self.leds.set(false, leds.left.green, leds.left.red);
+        self.leds.set(true, leds.right.green, leds.right.red);
         device.next_change(now)
     }
 }

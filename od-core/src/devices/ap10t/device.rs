@@ -130,10 +130,11 @@ impl Ap10t {
         self.panel.next_change(now)
     }
 
-    /// The diagnosis list (CODE 200000) from the error history 1003h: each error code once,
-    /// the latest first, with how often the history holds it (D-AP-23).
-    fn diagnosis(core: &Core) -> heapless::Vec<DiagEntry, 8> {
-        let mut list: heapless::Vec<DiagEntry, 8> = heapless::Vec::new();
+    /// The diagnosis list (CODE 200000) from the error history 1003h, into the panel: each
+    /// error code once, the latest first, with how often the history holds it (D-AP-23).
+    fn load_diagnosis(&mut self, core: &Core) {
+        let list = self.panel.diagnosis_mut();
+        list.clear();
         let n = core.od.value(0x1003, 0).unwrap_or(0).min(8) as u8;
         for sub in 1..=n {
             let code = core.od.value(0x1003, sub).unwrap_or(0) as u16;
@@ -144,7 +145,6 @@ impl Ap10t {
                 }
             }
         }
-        list
     }
 
     /// The panel parameters as the dictionary holds them.
@@ -189,7 +189,7 @@ impl Ap10t {
     /// points the TPDOs carry (5F1Dh).
     fn refresh(&self, core: &mut Core) {
         let od = &mut core.od;
-        od.set_value(0x5F19, 0, self.panel.status_word().bits() as u32);
+        od.set_value(0x5F19, 0, self.panel.status_bits() as u32);
         for (which, lsb, msb) in [(Which::Sp1, 3, 4), (Which::Sp2, 1, 2)] {
             let b = self.panel.set_points().get(which).bytes;
             od.set_value(0x5F1D, lsb, u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
@@ -203,19 +203,15 @@ impl Ap10t {
             Which::Sp1 => (3, 4),
             Which::Sp2 => (1, 2),
         };
-        let v = |i, s| core.od.value(i, s).unwrap_or(0);
-        let mut data = [0u8; 8];
-        data[..4].copy_from_slice(&v(0x5F16, lsb).to_le_bytes());
-        data[4..6].copy_from_slice(&(v(0x5F16, msb) as u16).to_le_bytes());
-        data[6..].copy_from_slice(&(v(0x5F0C, 0) as u16).to_le_bytes());
-        data
+        let v = |i, s| core.od.value(i, s).unwrap_or(0) as u64;
+        (v(0x5F16, lsb) | (v(0x5F16, msb) & 0xFFFF) << 32 | (v(0x5F0C, 0) & 0xFFFF) << 48).to_le_bytes()
     }
 
     /// A key was pressed (its debounced edge) at `now`.
     pub fn press(&mut self, core: &mut Core, key: Key, now: Instant) {
         self.ensure_started(core, now);
         self.panel.params = Ap10t::params(core);
-        self.panel.set_diagnosis(&Ap10t::diagnosis(core));
+        self.load_diagnosis(core);
         let effect = self.panel.press(key, now);
         self.refresh(core);
         match effect {
@@ -271,10 +267,12 @@ impl Ap10t {
     }
 
     /// Sends the answer to a remote request for set point `n` + 1 with `send`: only that
-    /// answer carries the data identifier in status word bit 9 (D-AP-13).
-    fn remote_answer(&self, core: &mut Core, n: u8, send: impl FnOnce(&mut Core)) {
+    /// answer carries the data identifier in status word bit 9 (D-AP-13). One copy for both
+    /// kinds of remote request (`send` is not generic).
+    #[inline(never)]
+    fn remote_answer(&self, core: &mut Core, n: u8, send: &dyn Fn(&mut Core)) {
         let which = if n == 0 { Which::Sp1 } else { Which::Sp2 };
-        let plain = self.panel.status_word().bits();
+        let plain = self.panel.status_bits();
         let ascii = self.panel.set_points().get(which).ascii;
         core.od.set_value(0x5F19, 0, (plain | if ascii { sw::ASCII } else { 0 }) as u32);
         send(core);
@@ -346,9 +344,8 @@ impl Device for Ap10t {
                 core.od.set_value(0x6200, 0, value);
             }
             hooks::PANEL => {
-                let mut p = self.panel.params;
-                p.write(e.index, e.sub, value).map_err(|_| Abort::INVALID_VALUE)?;
-                self.panel.params = p;
+                // A refused value leaves the parameters as they were.
+                self.panel.params.write(e.index, e.sub, value).map_err(|_| Abort::INVALID_VALUE)?;
             }
             hooks::EXTERNAL_HEARTBEAT => {
                 if e.sub == 1 && (1..10).contains(&value) {
@@ -452,12 +449,12 @@ impl CanopenDevice for Ap10t {
 
     fn on_rpdo_rtr(&mut self, core: &mut Core, n: u8, reply: &RtrReply, now: Instant) {
         self.ensure_started(core, now);
-        self.remote_answer(core, n, |core| reply.send(core, n));
+        self.remote_answer(core, n, &|core| reply.send(core, n));
     }
 
     fn on_tpdo_rtr(&mut self, core: &mut Core, n: u8, answer: &RtrAnswer, now: Instant) {
         self.ensure_started(core, now);
-        self.remote_answer(core, n, |core| answer.send(core));
+        self.remote_answer(core, n, &|core| answer.send(core));
     }
 
     fn on_sync(&mut self, core: &mut Core, now: Instant) {

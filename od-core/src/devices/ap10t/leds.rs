@@ -74,40 +74,38 @@ impl Default for LightConfig {
     }
 }
 
-/// What one element does (before blinking is applied).
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-struct Element {
-    on: bool,
-    blinks: bool,
-}
-
-/// The four elements in 5F12h order.
-fn elements(cfg: &LightConfig, sps: &SetPoints) -> [Element; 4] {
+/// The four elements in 5F12h order as bits 0-3 (LED1 green left, LED2 red left, LED3 green
+/// right, LED4 red right): which are on, and which of those blink.
+fn elements(cfg: &LightConfig, sps: &SetPoints) -> (u8, u8) {
     let cw = sps.control;
     let [s1, s2] = sps.sp;
-    // (acknowledgement-dependent state, control-word bit) per element.
-    let basic = [
+    let bits = |b: [bool; 4]| b.iter().enumerate().fold(0u8, |m, (i, &on)| m | (on as u8) << i);
+    let by_ack = bits([
         s1.valid && s1.acknowledged,
         s1.valid && !s1.acknowledged,
         s2.valid && s2.acknowledged,
         s2.valid && !s2.acknowledged,
-    ];
-    let by_cw = [cw.led1_green_left, cw.led2_red_left, cw.led3_green_right, cw.led4_red_right];
-    let mut out = [Element { on: false, blinks: false }; 4];
-    for i in 0..4 {
-        out[i] = if cfg.ack_dependent[i] {
-            Element { on: basic[i], blinks: cfg.flash_leds }
-        } else {
-            Element { on: by_cw[i], blinks: cfg.flash_leds || cw.led_blink }
-        };
-    }
-    out
+    ]);
+    let by_cw = bits([cw.led1_green_left, cw.led2_red_left, cw.led3_green_right, cw.led4_red_right]);
+    let ack_dependent = bits(cfg.ack_dependent);
+    let on = (by_ack & ack_dependent) | (by_cw & !ack_dependent);
+    // FLASH LED makes every element blink, control word bit 15 those under its control.
+    let blinks = if cfg.flash_leds {
+        0x0F
+    } else if cw.led_blink {
+        !ack_dependent
+    } else {
+        0
+    };
+    (on, on & blinks)
 }
 
 /// The LEDs at `now`.
 pub fn leds(cfg: &LightConfig, sps: &SetPoints, now: Instant) -> Leds {
-    let lit = elements(cfg, sps).map(|e| e.on && (!e.blinks || blink_on(now)));
-    Leds { left: Bicolour { green: lit[0], red: lit[1] }, right: Bicolour { green: lit[2], red: lit[3] } }
+    let (on, blinking) = elements(cfg, sps);
+    let lit = if blink_on(now) { on } else { on & !blinking };
+    let e = |i: u8| lit & 1 << i != 0;
+    Leds { left: Bicolour { green: e(0), red: e(1) }, right: Bicolour { green: e(2), red: e(3) } }
 }
 
 /// The backlight at `now`.
@@ -119,9 +117,14 @@ pub fn backlight(cfg: &LightConfig, now: Instant) -> Backlight {
 /// When the LEDs or the backlight next change by themselves after `now` (`None`: not before an
 /// input changes).
 pub fn next_change(cfg: &LightConfig, sps: &SetPoints, now: Instant) -> Option<Instant> {
-    let led_blinks = elements(cfg, sps).iter().any(|e| e.on && e.blinks);
+    blinks(cfg, sps).then(|| next_blink_edge(now))
+}
+
+/// Whether a lit LED element or the lit backlight blinks (changes with the blink clock).
+pub(crate) fn blinks(cfg: &LightConfig, sps: &SetPoints) -> bool {
+    let led_blinks = elements(cfg, sps).1 != 0;
     let light_blinks = cfg.flash_backlight && (cfg.backlight_white || cfg.backlight_red);
-    (led_blinks || light_blinks).then(|| next_blink_edge(now))
+    led_blinks || light_blinks
 }
 
 #[cfg(test)]

@@ -13,7 +13,7 @@
 use crate::time::Instant;
 
 use super::keys::{Key, KEYMAP};
-use super::screen::{blink_on, Row, CELLS};
+use super::screen::{blink_on, number, Cell, Row, CELLS};
 
 /// Without a key for this long the menu closes without a change (D-AP-9).
 pub const MENU_TIMEOUT_MS: u64 = 60_000;
@@ -152,11 +152,10 @@ impl Entry {
         let mut row = Row::BLANK;
         let len = self.len as usize;
         for i in 0..len {
-            let cell = &mut row.0[CELLS - len + i];
-            cell.ch = b'0' + self.digits[i];
-            if i == len - 1 - self.pos as usize && !blink_on(now) {
-                cell.ch = b' ';
-            }
+            row.0[CELLS - len + i].ch = b'0' + self.digits[i];
+        }
+        if !blink_on(now) {
+            row.0[CELLS - 1 - self.pos as usize] = Cell::BLANK;
         }
         row
     }
@@ -202,9 +201,12 @@ pub struct MenuContext {
 
 /// Label on the left, value on the right (the value wins where they overlap).
 pub fn label_value(label: &str, value: &str) -> Row {
-    let mut row = Row::left(label);
-    let v = Row::right(value);
-    for (c, vc) in row.0.iter_mut().zip(v.0) {
+    overlay(Row::left(label), Row::right(value))
+}
+
+/// `value` over `row`: its lit cells replace the row's.
+fn overlay(mut row: Row, value: Row) -> Row {
+    for (c, vc) in row.0.iter_mut().zip(value.0) {
         if vc.ch != b' ' || vc.dp {
             *c = vc;
         }
@@ -212,7 +214,13 @@ pub fn label_value(label: &str, value: &str) -> Row {
     row
 }
 
-fn decimal(n: u32) -> heapless::String<10> {
+/// `n` in decimal, right-aligned (the menu's numbers have at most five digits).
+fn decimal_row(n: u32) -> Row {
+    number(n as i32, 0).unwrap_or(Row::BLANK)
+}
+
+/// `n` in decimal as text.
+pub fn decimal(n: u32) -> heapless::String<10> {
     let mut s = heapless::String::new();
     let mut buf = [0u8; 10];
     let mut i = buf.len();
@@ -231,11 +239,29 @@ fn decimal(n: u32) -> heapless::String<10> {
     s
 }
 
-fn hex4(n: u16) -> heapless::String<4> {
+/// The hex digit `d` (0..=15) as ASCII.
+const fn hex_digit(d: u8) -> u8 {
+    if d < 10 {
+        b'0' + d
+    } else {
+        b'A' + d - 10
+    }
+}
+
+/// `n` as four hex digits, right-aligned.
+fn hex_row(n: u16) -> Row {
+    let mut row = Row::BLANK;
+    for i in 0..4 {
+        row.0[CELLS - 1 - i].ch = hex_digit((n >> (4 * i)) as u8 & 0xF);
+    }
+    row
+}
+
+/// `n` as four hex digits.
+pub fn hex4(n: u16) -> heapless::String<4> {
     let mut s = heapless::String::new();
     for shift in [12, 8, 4, 0] {
-        let d = (n >> shift) as u8 & 0xF;
-        let _ = s.push(if d < 10 { (b'0' + d) as char } else { (b'A' + d - 10) as char });
+        let _ = s.push(hex_digit((n >> shift) as u8 & 0xF) as char);
     }
     s
 }
@@ -244,12 +270,8 @@ impl Mode {
     /// The mode in effect at `now`: an expired display test, info display or idle menu is back
     /// at the top level. `last_key`: the last key press.
     pub fn at(self, now: Instant, last_key: Instant) -> Mode {
-        match self {
-            Mode::Normal | Mode::AutoId(_) => self,
-            Mode::PowerUp(since) if now.micros_since(since) >= POWER_UP_MS * 1000 => Mode::Normal,
-            Mode::PowerUp(_) => self,
-            Mode::Info(until) if now >= until => Mode::Normal,
-            _ if now.micros_since(last_key) >= MENU_TIMEOUT_MS * 1000 => Mode::Normal,
+        match self.deadline(last_key) {
+            Some(end) if now >= end => Mode::Normal,
             _ => self,
         }
     }
@@ -266,92 +288,108 @@ impl Mode {
 
     /// A key pressed in a menu mode (not [`Mode::Normal`], whose keys the panel handles):
     /// the next mode and what the device must do.
-    pub fn press(self, key: Key, ctx: &MenuContext) -> (Mode, Option<Effect>) {
+    pub fn press(mut self, key: Key, ctx: &MenuContext) -> (Mode, Option<Effect>) {
+        let effect = self.step(key, ctx);
+        (self, effect)
+    }
+
+    /// [`Mode::press`] in place: the mode becomes the next one; returns what the device must do.
+    pub(crate) fn step(&mut self, key: Key, ctx: &MenuContext) -> Option<Effect> {
         let m = KEYMAP;
-        match self {
-            Mode::Normal | Mode::PowerUp(_) => (self, None),
-            Mode::Info(_) if key == m.parameterize && ctx.config_enable => (Mode::List(Item::Id), None),
-            Mode::Info(_) => (self, None),
-            Mode::AutoId(id) if key == m.auto_id => (Mode::Normal, Some(Effect::AutoIdAdopted(id))),
-            Mode::AutoId(_) => (self, None),
-            Mode::List(_) if key == m.back => (Mode::Normal, None),
-            Mode::List(item) if key == m.value_input => (Mode::List(item.next()), None),
-            Mode::List(item) if key == m.confirm => (
-                match item {
-                    Item::Id => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
-                    Item::Kbaud => Mode::Baud(BAUD_LIST.iter().position(|&b| b == ctx.baud).unwrap_or(0) as u8),
-                    Item::Code => Mode::EditCode(Entry::new(0, 6)),
-                },
-                None,
-            ),
-            Mode::List(_) => (self, None),
-            Mode::EditId(_) | Mode::Baud(_) | Mode::EditCode(_) | Mode::Diagnosis(_) if key == m.back => {
-                let item = match self {
-                    Mode::EditId(_) => Item::Id,
-                    Mode::Baud(_) => Item::Kbaud,
-                    _ => Item::Code,
-                };
-                (Mode::List(item), None)
+        if let Mode::EditId(e) | Mode::EditCode(e) = self {
+            if key == m.digit_select {
+                e.select_left();
+                return None;
             }
-            Mode::EditId(mut e) | Mode::EditCode(mut e) if key == m.digit_select || key == m.value_input => {
-                if key == m.digit_select {
-                    e.select_left();
-                } else {
-                    e.count_up();
-                }
-                (if matches!(self, Mode::EditId(_)) { Mode::EditId(e) } else { Mode::EditCode(e) }, None)
+            if key == m.value_input {
+                e.count_up();
+                return None;
             }
-            Mode::EditId(e) if key == m.confirm => match e.value() {
-                v @ 1..=127 => (Mode::List(Item::Id), Some(Effect::SetNodeId(v as u8))),
-                // Out of 1..=127: not taken, the entry stays for a correction.
-                _ => (self, None),
-            },
-            Mode::EditCode(e) if key == m.confirm => match e.value() {
-                CODE_RESET_ALL => (Mode::Normal, Some(Effect::FactoryReset(ResetScope::All))),
-                CODE_RESET_ALL_EXCEPT_BUS => (Mode::Normal, Some(Effect::FactoryReset(ResetScope::AllExceptBus))),
-                CODE_RESET_BUS => (Mode::Normal, Some(Effect::FactoryReset(ResetScope::BusOnly))),
-                CODE_DIAGNOSIS => (Mode::Diagnosis(0), None),
-                _ => (Mode::List(Item::Code), None),
-            },
-            Mode::Baud(i) if key == m.value_input => (Mode::Baud((i + 1) % BAUD_LIST.len() as u8), None),
-            Mode::Baud(i) if key == m.confirm => {
-                (Mode::List(Item::Kbaud), Some(Effect::SetBaud(BAUD_LIST[i as usize % BAUD_LIST.len()])))
-            }
-            Mode::Diagnosis(n) if key == m.value_input => (Mode::Diagnosis(n.wrapping_add(1)), None),
-            _ => (self, None),
         }
+        let mut effect = None;
+        let mut set = |e: Effect| effect = Some(e);
+        *self = match *self {
+            Mode::Info(_) if key == m.parameterize && ctx.config_enable => Mode::List(Item::Id),
+            Mode::AutoId(id) if key == m.auto_id => {
+                set(Effect::AutoIdAdopted(id));
+                Mode::Normal
+            }
+            Mode::List(_) if key == m.back => Mode::Normal,
+            Mode::List(item) if key == m.value_input => Mode::List(item.next()),
+            Mode::List(Item::Id) if key == m.confirm => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
+            Mode::List(Item::Kbaud) if key == m.confirm => {
+                Mode::Baud(BAUD_LIST.iter().position(|&b| b == ctx.baud).unwrap_or(0) as u8)
+            }
+            Mode::List(Item::Code) if key == m.confirm => Mode::EditCode(Entry::new(0, 6)),
+            Mode::EditId(_) if key == m.back => Mode::List(Item::Id),
+            Mode::Baud(_) if key == m.back => Mode::List(Item::Kbaud),
+            Mode::EditCode(_) | Mode::Diagnosis(_) if key == m.back => Mode::List(Item::Code),
+            Mode::EditId(e) if key == m.confirm => match e.value() {
+                v @ 1..=127 => {
+                    set(Effect::SetNodeId(v as u8));
+                    Mode::List(Item::Id)
+                }
+                // Out of 1..=127: not taken, the entry stays for a correction.
+                _ => return None,
+            },
+            Mode::EditCode(e) if key == m.confirm => {
+                let scope = match e.value() {
+                    CODE_RESET_ALL => ResetScope::All,
+                    CODE_RESET_ALL_EXCEPT_BUS => ResetScope::AllExceptBus,
+                    CODE_RESET_BUS => ResetScope::BusOnly,
+                    CODE_DIAGNOSIS => {
+                        *self = Mode::Diagnosis(0);
+                        return None;
+                    }
+                    _ => {
+                        *self = Mode::List(Item::Code);
+                        return None;
+                    }
+                };
+                set(Effect::FactoryReset(scope));
+                Mode::Normal
+            }
+            Mode::Baud(i) if key == m.value_input => Mode::Baud((i + 1) % BAUD_LIST.len() as u8),
+            Mode::Baud(i) if key == m.confirm => {
+                set(Effect::SetBaud(BAUD_LIST[i as usize % BAUD_LIST.len()]));
+                Mode::List(Item::Kbaud)
+            }
+            Mode::Diagnosis(n) if key == m.value_input => Mode::Diagnosis(n.wrapping_add(1)),
+            _ => return None,
+        };
+        effect
     }
 
     /// The two rows of a menu mode at `now` (for [`Mode::Normal`] the panel renders the set
-    /// points; here it is blank).
+    /// points; here it is blank). The diagnosis shows the first eight entries of `diag` at
+    /// most, as many as the panel keeps.
     pub fn screen(self, now: Instant, ctx: &MenuContext, diag: &[DiagEntry]) -> [Row; 2] {
-        match self {
-            Mode::Normal => [Row::BLANK; 2],
-            Mode::PowerUp(_) => [Row::left("8.8.8.8.8.8."); 2],
-            Mode::Info(_) => [label_value("ID", &decimal(ctx.node_id as u32)), Row::right(baud_text(ctx.baud))],
-            Mode::List(item) => {
-                let value = match item {
-                    Item::Id => Row::right(&decimal(ctx.node_id as u32)),
-                    Item::Kbaud => Row::right(baud_text(ctx.baud)),
-                    Item::Code => Row::BLANK,
-                };
-                [Row::left(item.label()), value]
-            }
-            Mode::EditId(e) => [Row::left(Item::Id.label()), e.row(now)],
-            Mode::EditCode(e) => [Row::left(Item::Code.label()), e.row(now)],
-            Mode::Baud(i) => {
-                [Row::left(Item::Kbaud.label()), Row::right(baud_text(BAUD_LIST[i as usize % BAUD_LIST.len()]))]
-            }
+        let baud = |code: u8| Row::right(baud_text(code));
+        let (label, value) = match self {
+            Mode::Normal => return [Row::BLANK; 2],
+            Mode::PowerUp(_) => return [Row::left("8.8.8.8.8.8."); 2],
+            Mode::Info(_) => return [overlay(Row::left("ID"), decimal_row(ctx.node_id as u32)), baud(ctx.baud)],
+            Mode::List(Item::Id) => (Item::Id, decimal_row(ctx.node_id as u32)),
+            Mode::List(Item::Kbaud) => (Item::Kbaud, baud(ctx.baud)),
+            Mode::List(Item::Code) => (Item::Code, Row::BLANK),
+            Mode::EditId(e) => (Item::Id, e.row(now)),
+            Mode::EditCode(e) => (Item::Code, e.row(now)),
+            Mode::Baud(i) => (Item::Kbaud, baud(BAUD_LIST[i as usize % BAUD_LIST.len()])),
             Mode::Diagnosis(n) => {
+                // The panel keeps eight entries: the error number is one digit.
+                let diag = &diag[..diag.len().min(8)];
                 if diag.is_empty() {
                     return [Row::left("no Err"), Row::BLANK];
                 }
                 let i = n as usize % diag.len();
                 let e = diag[i];
-                [label_value(&decimal(i as u32 + 1), &decimal(e.count as u32)), Row::right(&hex4(e.code))]
+                let mut number = Row::BLANK;
+                number.0[0].ch = b'1' + i as u8;
+                return [overlay(number, decimal_row(e.count as u32)), hex_row(e.code)];
             }
-            Mode::AutoId(_) => [Row::left("New ID"), Row::BLANK],
-        }
+            Mode::AutoId(_) => return [Row::left("New ID"), Row::BLANK],
+        };
+        [Row::left(label.label()), value]
     }
 
     /// Whether the mode's rows change with the blink clock.

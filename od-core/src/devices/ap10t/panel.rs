@@ -136,36 +136,58 @@ impl Params {
     /// Takes a value written to a panel parameter object (by SDO, a restore, a load at
     /// power-up), checked against the object's range.
     pub fn write(&mut self, index: u16, sub: u8, value: u32) -> Result<(), ParamError> {
-        let flag = |v: u32| if v <= 1 { Ok(v == 1) } else { Err(ParamError::OutOfRange) };
-        let within = |v: u32, lo: u32, hi: u32| {
-            if (lo..=hi).contains(&v) {
-                Ok(v as u8)
-            } else {
-                Err(ParamError::OutOfRange)
-            }
-        };
-        match (index, sub) {
-            (0x2003, 0) => self.key_enable_2003 = flag(value)?,
-            (0x2004, 0) => self.key_enable_2004 = flag(value)?,
-            (0x2005, 1) => self.config_enable = flag(value)?,
-            (0x2005, 2) => self.config_delay_s = within(value, 1, 60)?,
-            (0x5F0A, 1) => self.node_id = within(value, 1, 0x7F)?,
-            (0x5F0A, 3) => self.baud = within(value, 0, 5)?,
-            (0x5F0B, 0) => self.row2_off = flag(value)?,
-            (0x5F11, 0) => self.decimals = within(value, 0, 4)?,
-            (0x5F12, 1) => self.rotated = flag(value)?,
-            (0x5F12, s @ 2..=5) => self.lights.ack_dependent[s as usize - 2] = flag(value)?,
-            (0x5F12, 6) => self.lights.flash_leds = flag(value)?,
-            (0x5F12, 7) => self.lights.backlight_white = flag(value)?,
-            (0x5F12, 8) => self.lights.backlight_red = flag(value)?,
-            (0x5F12, 9) => self.lights.flash_backlight = flag(value)?,
-            (0x5F1C, 0) => self.ack_keys = AckKeys::from_raw(within(value, 0, 2)?).ok_or(ParamError::OutOfRange)?,
-            (0x5F1C, 1) => self.steady_unacknowledged = flag(value)?,
-            _ => return Err(ParamError::NotAPanelParameter),
+        let i = PANEL_OBJECTS.iter().position(|&o| o == (index, sub)).ok_or(ParamError::NotAPanelParameter)?;
+        let (lo, hi) = PANEL_RANGES[i];
+        if !(lo as u32..=hi as u32).contains(&value) {
+            return Err(ParamError::OutOfRange);
+        }
+        let (v, flag) = (value as u8, value == 1);
+        match i {
+            0 => self.key_enable_2003 = flag,
+            1 => self.key_enable_2004 = flag,
+            2 => self.config_enable = flag,
+            3 => self.config_delay_s = v,
+            4 => self.node_id = v,
+            5 => self.baud = v,
+            6 => self.row2_off = flag,
+            7 => self.decimals = v,
+            8 => self.rotated = flag,
+            9..=12 => self.lights.ack_dependent[i - 9] = flag,
+            13 => self.lights.flash_leds = flag,
+            14 => self.lights.backlight_white = flag,
+            15 => self.lights.backlight_red = flag,
+            16 => self.lights.flash_backlight = flag,
+            17 => self.ack_keys = AckKeys::from_raw(v).ok_or(ParamError::OutOfRange)?,
+            _ => self.steady_unacknowledged = flag,
         }
         Ok(())
     }
 }
+
+/// The range of each of [`PANEL_OBJECTS`], (lowest, highest): flags 0..=1, 2005h sub 2 the key
+/// enable time 1..=60 s, 5F0Ah sub 1 the node-ID 1..=127, 5F0Ah sub 3 the baud rate 0..=5,
+/// 5F11h 0..=4 decimal places, 5F1Ch sub 0 0..=2.
+const PANEL_RANGES: [(u8, u8); 19] = [
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (1, 60),
+    (1, 0x7F),
+    (0, 5),
+    (0, 1),
+    (0, 4),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 1),
+    (0, 2),
+    (0, 1),
+];
 
 impl Default for Params {
     fn default() -> Self {
@@ -212,6 +234,14 @@ impl core::fmt::Display for View {
             if self.screen.rotated { " rotated" } else { "" }
         )
     }
+}
+
+/// The quarter of the power-up display test (started at `since`) that `now` is in: 0..=3 while
+/// it runs, the LED element lit. The test lasts a second: its elapsed time fits 32 bits (a
+/// 64-bit division is a library routine of about 1 KiB on the Cortex-M3).
+fn power_up_quarter(since: Instant, now: Instant) -> u32 {
+    let elapsed = now.micros_since(since).min(u32::MAX as u64) as u32;
+    elapsed / (POWER_UP_MS as u32 * 250)
 }
 
 /// Set points, keys and menu of one AP10T.
@@ -263,6 +293,11 @@ impl Panel {
         }
     }
 
+    /// The diagnosis list itself, for the device to fill in place.
+    pub(crate) fn diagnosis_mut(&mut self) -> &mut heapless::Vec<DiagEntry, 8> {
+        &mut self.diag
+    }
+
     /// Auto-ID (manual 4.6.2): a write of `new_id` to 5F0Ah sub 2 arrived; "New ID" shows until
     /// the Auto-ID key ([`Effect::AutoIdAdopted`]) or [`Panel::end_auto_id`]. An ID outside
     /// 1..=127 is refused (`false`; the SDO server answers with an abort).
@@ -294,16 +329,17 @@ impl Panel {
     /// A key was pressed (debounced edge) at `now`.
     pub fn press(&mut self, key: Key, now: Instant) -> Option<Effect> {
         self.held = self.held.with(key, true);
-        let mode = self.mode(now);
+        let mut mode = self.mode(now);
         self.last_key = now;
-        let (next, effect) = match mode {
-            Mode::Normal => self.top_level(key, now),
+        let effect = match mode {
             // Another key while node-ID and baud rate show: back to the top level, and the
             // key does what it does there.
-            Mode::Info(_) if key != KEYMAP.parameterize => self.top_level(key, now),
-            _ => mode.press(key, &self.params.menu()),
+            Mode::Normal | Mode::Info(_) if mode == Mode::Normal || key != KEYMAP.parameterize => {
+                self.top_level(&mut mode, key, now)
+            }
+            _ => mode.step(key, &self.params.menu()),
         };
-        self.mode = next;
+        self.mode = mode;
         effect
     }
 
@@ -314,20 +350,26 @@ impl Panel {
 
     /// A key at the top level: acknowledgement first, where the key acknowledges and a set
     /// point waits for it (D-AP-8), else the parameterization key shows node-ID and baud rate.
-    fn top_level(&mut self, key: Key, now: Instant) -> (Mode, Option<Effect>) {
+    fn top_level(&mut self, mode: &mut Mode, key: Key, now: Instant) -> Option<Effect> {
         let p = &self.params;
+        *mode = Mode::Normal;
         if p.ack_keys.acknowledges(key) && p.enabled(key) && self.sps.acknowledge() {
-            return (Mode::Normal, Some(Effect::Acknowledged));
+            return Some(Effect::Acknowledged);
         }
         if key == KEYMAP.parameterize {
-            return (Mode::Info(now.add_millis(p.config_delay_s.max(1) as u64 * 1000)), None);
+            *mode = Mode::Info(now.add_millis(p.config_delay_s.max(1) as u64 * 1000));
         }
-        (Mode::Normal, None)
+        None
     }
 
     /// The status word 5F19h (bit 9 = 0).
     pub fn status_word(&self) -> StatusWord {
         self.sps.status_word(self.held)
+    }
+
+    /// [`Panel::status_word`] as its 16 bits.
+    pub fn status_bits(&self) -> u16 {
+        self.sps.status_bits(self.held)
     }
 
     /// TPDO1 (`Sp1`) / TPDO2 (`Sp2`) data; `remote`: answering a remote request.
@@ -353,8 +395,8 @@ impl Panel {
         };
         let (leds, backlight) = match mode {
             Mode::PowerUp(since) => {
-                let step = now.micros_since(since) / (POWER_UP_MS * 250);
-                let on = |i: u64| step == i;
+                let step = power_up_quarter(since, now);
+                let on = |i: u32| step == i;
                 (
                     Leds { left: Bicolour { green: on(0), red: on(1) }, right: Bicolour { green: on(2), red: on(3) } },
                     Backlight { white: true, red: true },
@@ -371,25 +413,20 @@ impl Panel {
         let p = &self.params;
         let mode = self.mode(now);
         let blink = match mode {
+            Mode::PowerUp(since) => {
+                // The next quarter (an LED element's turn), at the latest the end of the test.
+                let next = power_up_quarter(since, now) as u64 + 1;
+                return Some(since.add_micros(next * POWER_UP_MS * 250));
+            }
             Mode::Normal => {
                 let style = p.style(&self.sps);
                 set_point_blinks(&self.sps.sp[0], style) || (!p.row2_off && set_point_blinks(&self.sps.sp[1], style))
             }
             _ => mode.blinks(),
         };
-        let mut next = mode.deadline(self.last_key);
-        if let Mode::PowerUp(since) = mode {
-            let quarter = POWER_UP_MS * 250;
-            // The power-up display lasts seconds: its elapsed time fits 32 bits (a 64-bit
-            // division is a library routine of about 1 KiB on the Cortex-M3).
-            let elapsed = now.micros_since(since).min(u32::MAX as u64) as u32;
-            let step = (elapsed / quarter as u32) as u64 + 1;
-            next = earliest(next, Some(since.add_micros(step * quarter)));
-        } else {
-            next = earliest(next, leds::next_change(&p.lights, &self.sps, now));
-        }
-        if blink {
-            next = earliest(next, Some(next_blink_edge(now)));
+        let next = mode.deadline(self.last_key);
+        if blink || leds::blinks(&p.lights, &self.sps) {
+            return earliest(next, Some(next_blink_edge(now)));
         }
         next
     }

@@ -129,49 +129,30 @@ impl Row {
     }
 }
 
-/// Decimal digits of `n` (at least `min` of them, zero-padded), least significant first.
-fn digits(mut n: u32, min: usize) -> ([u8; 10], usize) {
-    let mut d = [0u8; 10];
-    let mut len = 0;
-    while len < 10 && (n > 0 || len < min.max(1)) {
-        d[len] = b'0' + (n % 10) as u8;
-        n /= 10;
-        len += 1;
-    }
-    (d, len)
-}
-
 /// `value` with `decimals` places, right-aligned, if it fits six cells (sign included).
 pub fn number(value: i32, decimals: u8) -> Option<Row> {
-    let decimals = decimals.min(4) as usize;
-    let (d, len) = digits(value.unsigned_abs(), decimals + 1);
-    let neg = value < 0;
-    if len + neg as usize > CELLS {
-        return None;
-    }
-    let mut row = Row::BLANK;
-    for (i, &ch) in d[..len].iter().enumerate() {
-        row.0[CELLS - 1 - i] = Cell { ch, dp: decimals > 0 && i == decimals };
-    }
-    if neg {
-        row.0[CELLS - 1 - len].ch = b'-';
-    }
-    Some(row)
+    let (row, fits) = digits_row(value, decimals);
+    fits.then_some(row)
 }
 
-/// A numeric set point in the extended range that needs all six cells for its digits: the
-/// leftmost cell alternates between '-' (lit half of the blink period) and the highest digit.
-fn alternating(value: i32, decimals: u8, now: Instant) -> Row {
+/// `value` with `decimals` places (at most 4) right-aligned, and whether its sign fitted too;
+/// when it did not, the row holds the six lowest digits without the sign.
+fn digits_row(value: i32, decimals: u8) -> (Row, bool) {
     let decimals = decimals.min(4) as usize;
-    let (d, _) = digits(value.unsigned_abs(), CELLS);
+    let mut n = value.unsigned_abs();
     let mut row = Row::BLANK;
-    for (i, &ch) in d[..CELLS].iter().enumerate() {
-        row.0[CELLS - 1 - i] = Cell { ch, dp: decimals > 0 && i == decimals };
+    // Cells from the right: every digit, at least one before the point.
+    let mut i = 0;
+    while i < CELLS && (n > 0 || i <= decimals) {
+        row.0[CELLS - 1 - i] = Cell { ch: b'0' + (n % 10) as u8, dp: decimals > 0 && i == decimals };
+        n /= 10;
+        i += 1;
     }
-    if blink_on(now) {
-        row.0[0].ch = b'-';
+    let fits = n == 0 && (value >= 0 || i < CELLS);
+    if value < 0 && fits {
+        row.0[CELLS - 1 - i].ch = b'-';
     }
-    row
+    (row, fits)
 }
 
 /// "FULLL" (manual 3.2).
@@ -219,13 +200,18 @@ pub fn set_point_row(sp: &SetPoint, style: RowStyle, now: Instant) -> Row {
         return ascii(&sp.bytes);
     }
     let v = sp.number();
-    if (STANDARD_MIN..=MAX).contains(&v) {
-        return number(v, style.decimals).unwrap_or_else(full);
+    let extended = style.extended && sp.acknowledged && (EXTENDED_MIN..STANDARD_MIN).contains(&v);
+    if !extended && !(STANDARD_MIN..=MAX).contains(&v) {
+        return full();
     }
-    if style.extended && sp.acknowledged && (EXTENDED_MIN..STANDARD_MIN).contains(&v) {
-        return number(v, style.decimals).unwrap_or_else(|| alternating(v, style.decimals, now));
+    // Every value of the standard range fits; one of the extended range that needs all six
+    // cells for its digits alternates its leftmost cell between '-' (lit half of the blink
+    // period) and the highest digit.
+    let (mut row, fits) = digits_row(v, style.decimals);
+    if !fits && blink_on(now) {
+        row.0[0].ch = b'-';
     }
-    full()
+    row
 }
 
 /// Whether a set point's row changes with time (flashing or alternating).

@@ -9,8 +9,8 @@
 //! the same value keeps an acknowledgement given by key. An invalid set point is never
 //! acknowledged.
 
-use super::keys::KeySet;
-use super::words::{ControlWord, StatusWord};
+use super::keys::{Key, KeySet};
+use super::words::{sw, ControlWord, StatusWord};
 
 /// Which set point: 1 (upper row, RPDO1/TPDO1) or 2 (lower row, RPDO2/TPDO2).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -124,17 +124,22 @@ impl SetPoints {
 
     /// The status word 5F19h with the keys `held`; bit 9 (data identifier) is 0.
     pub fn status_word(&self, held: KeySet) -> StatusWord {
+        StatusWord::from_bits(self.status_bits(held))
+    }
+
+    /// [`SetPoints::status_word`] as its 16 bits.
+    pub fn status_bits(&self, held: KeySet) -> u16 {
         let [s1, s2] = self.sp;
-        let mut sw = StatusWord {
-            sp1_valid: s1.valid,
-            sp1_ack: s1.acknowledged,
-            sp2_valid: s2.valid,
-            sp2_ack: s2.acknowledged,
-            guarding: self.control.guarding,
-            ..StatusWord::default()
-        };
-        held.report(&mut sw);
-        sw
+        let put = |flag: bool, mask: u16| if flag { mask } else { 0 };
+        put(s1.valid, sw::SP1_VALID)
+            | put(s1.acknowledged, sw::SP1_ACK)
+            | put(s2.valid, sw::SP2_VALID)
+            | put(s2.acknowledged, sw::SP2_ACK)
+            | put(self.control.guarding, sw::GUARDING)
+            | put(held.contains(Key::Front), sw::FRONT_KEY)
+            | put(held.contains(Key::Left), sw::LEFT_KEY)
+            | put(held.contains(Key::Star), sw::STAR_KEY)
+            | put(held.contains(Key::Up), sw::UP_KEY)
     }
 
     /// The 8 data bytes of TPDO1 (`Sp1`) or TPDO2 (`Sp2`): the set point's bytes 0-5 as
