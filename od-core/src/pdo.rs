@@ -122,8 +122,9 @@ impl Slice {
     const EMPTY: Slice = Slice { pos: NONE, bytes: 0 };
 }
 
-/// A PDO's mapping resolved against the dictionary.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+/// A PDO's mapping resolved against the dictionary (equal to another when it maps the same:
+/// the slots past `count` do not count).
+#[derive(Clone, Copy, Eq, Debug)]
 struct Mapping {
     slices: [Slice; MAX_MAPPED],
     count: u8,
@@ -131,6 +132,12 @@ struct Mapping {
     len: u8,
     /// False when the stored mapping names no valid object: the PDO is not used.
     ok: bool,
+}
+
+impl PartialEq for Mapping {
+    fn eq(&self, other: &Mapping) -> bool {
+        (self.len, self.ok, self.slices()) == (other.len, other.ok, other.slices())
+    }
 }
 
 impl Mapping {
@@ -233,10 +240,12 @@ pub struct Pdos {
     /// [`CanId::key`] of the SYNC identifier (1005h), `u32::MAX` when the node consumes no
     /// SYNC: one compare per frame ([`Pdos::is_sync`]).
     sync_key: u32,
-    /// The TPDOs a SYNC concerns (valid, mapped, type 1..=240 or FCh), one bit each: a SYNC
+    /// The TPDOs a SYNC counts for (valid, mapped, type 1..=240), one bit each: a SYNC
     /// visits only them. Kept by [`Pdos::reset`] and [`Pdos::on_write`], which alone change
     /// those three.
     sync_tx: u8,
+    /// The TPDOs a SYNC samples (valid, mapped, type FCh), one bit each, kept alike.
+    sync_sample: u8,
     tpdo: [Tpdo; MAX_TPDOS],
     ntpdo: u8,
     rpdo: [Rpdo; MAX_RPDOS],
@@ -262,6 +271,7 @@ impl Default for Pdos {
         Pdos {
             sync_key: u32::MAX,
             sync_tx: 0,
+            sync_sample: 0,
             tpdo: [Pdo::EMPTY; MAX_TPDOS],
             ntpdo: 0,
             rpdo: [Pdo::EMPTY; MAX_RPDOS],
@@ -310,13 +320,18 @@ impl Pdos {
     }
 
     fn refresh_sync_tx(&mut self) {
-        let mut mask = 0;
+        let (mut counted, mut sampled) = (0, 0);
         for (n, t) in self.tpdos().iter().enumerate() {
-            if t.valid && t.map.ok && matches!(t.ttype, 1..=240 | TYPE_SYNC_RTR) {
-                mask |= 1 << n;
+            if t.valid && t.map.ok {
+                match t.ttype {
+                    1..=240 => counted |= 1 << n,
+                    TYPE_SYNC_RTR => sampled |= 1 << n,
+                    _ => {}
+                }
             }
         }
-        self.sync_tx = mask;
+        self.sync_tx = counted;
+        self.sync_sample = sampled;
     }
 
     /// Is `frame` a SYNC (a data frame on the 1005h identifier)?
@@ -340,6 +355,7 @@ impl Pdos {
     }
 
     /// PDO `n` of a direction (`n` below its count).
+    #[inline(always)]
     fn pdo(&mut self, rx: bool, n: usize) -> &mut Pdo {
         if rx {
             &mut self.rpdo[n]
@@ -365,29 +381,31 @@ impl Pdos {
         self.next = [None; MAX_TPDOS];
         self.last = [None; MAX_TPDOS];
         self.deadline = None;
-        for rx in [false, true] {
-            let (base, max) = if rx { (0x1400, MAX_RPDOS) } else { (0x1800, MAX_TPDOS) };
-            let mut n = 0;
-            while n < max {
-                let comm = base + n as u16;
-                let Some(params) = Params::load(od, comm) else { break };
-                let map = match od.value(comm + 0x200, 0) {
-                    Some(count) => resolve(od, comm + 0x200, count as u8, rx).unwrap_or(Mapping::EMPTY),
-                    None => Mapping::EMPTY,
-                };
-                let ttype = Params::get(od, params.ttype, TYPE_ASYNC_PROFILE as u32) as u8;
-                let p = self.pdo(rx, n);
-                *p = Pdo { params, map, ttype, ..Pdo::EMPTY };
-                p.set_cob(od.get(params.cob as usize));
-                n += 1;
-            }
-            if rx {
-                self.nrpdo = n as u8;
-            } else {
-                self.ntpdo = n as u8;
-            }
-        }
+        self.ntpdo = self.load(od, false);
+        self.nrpdo = self.load(od, true);
         self.refresh_sync_tx();
+    }
+
+    /// Reads the PDOs of one direction from their records (14xxh/16xxh, 18xxh/1Axxh), up to
+    /// the first missing one; how many there are.
+    fn load(&mut self, od: &Od, rx: bool) -> u8 {
+        let base = if rx { 0x1400 } else { 0x1800 };
+        let mut n = 0;
+        while n < MAX_TPDOS.min(MAX_RPDOS) {
+            let comm = base + n as u16;
+            let Some(params) = Params::load(od, comm) else { break };
+            let p = self.pdo(rx, n);
+            p.params = params;
+            p.ttype = Params::get(od, params.ttype, TYPE_ASYNC_PROFILE as u32) as u8;
+            p.count = 0;
+            p.held = None;
+            p.set_cob(od.get(params.cob as usize));
+            // A mapping that does not resolve leaves the PDO unused (`ok` false).
+            let count = od.value(comm + 0x200, 0).unwrap_or(0);
+            let _ = resolve(od, comm + 0x200, count as u8, rx, &mut p.map);
+            n += 1;
+        }
+        n as u8
     }
 
     /// Starts or stops the PDOs after an NMT state change: entering OPERATIONAL restarts the SYNC
@@ -468,30 +486,28 @@ impl Pdos {
         while due != 0 {
             let t = &mut self.tpdo[due.trailing_zeros() as usize % MAX_TPDOS];
             due &= due - 1;
-            // The mask holds types 1..=240 (every n-th SYNC) and FCh (sampled at every one).
-            let sample = t.ttype == TYPE_SYNC_RTR;
-            if !sample {
-                t.count += 1;
-                if t.count < t.ttype {
-                    continue;
-                }
+            t.count += 1;
+            if t.count >= t.ttype {
                 t.count = 0;
-            }
-            let data = pack(&ctx.od, &t.map);
-            if sample {
-                t.held = Some(data);
-            } else {
+                let data = pack(&ctx.od, &t.map);
                 ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
             }
         }
-        let rpdos = if self.nrpdo == 0 { 0 } else { self.apply_pending(&mut ctx.od) };
+        // The rarer work, out of line: TPDOs sampled (type FCh), RPDOs written.
+        let rpdos = if self.sync_sample | self.nrpdo == 0 { 0 } else { self.sync_rest(&mut ctx.od) };
         PdoEvent::Sync { rpdos }
     }
 
-    /// Applies the synchronous RPDO data received since the last SYNC; the RPDOs written, one
-    /// bit each.
+    /// At a SYNC, after the transmissions: samples the TPDOs of type FCh and writes the
+    /// synchronous RPDO data received since the last SYNC; the RPDOs written, one bit each.
     #[inline(never)]
-    fn apply_pending(&mut self, od: &mut Od) -> u8 {
+    fn sync_rest(&mut self, od: &mut Od) -> u8 {
+        let mut due = self.sync_sample;
+        while due != 0 {
+            let t = &mut self.tpdo[due.trailing_zeros() as usize % MAX_TPDOS];
+            due &= due - 1;
+            t.held = Some(packed(od, &t.map));
+        }
         let mut rpdos = 0;
         for n in 0..self.rpdos().len() {
             let r = &mut self.rpdo[n];
@@ -747,7 +763,9 @@ impl Pdos {
             return Ok(());
         }
         let count = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
-        self.pdo(rx, n).map = resolve(&ctx.od, index, count, rx)?;
+        let mut map = Mapping::EMPTY;
+        resolve(&ctx.od, index, count, rx, &mut map)?;
+        self.pdo(rx, n).map = map;
         Ok(())
     }
 }
@@ -762,7 +780,7 @@ fn find(list: &[Pdo], id: CanId) -> Option<u8> {
 fn send(ctx: &mut Context, id: CanId, map: &Mapping, held: Option<[u8; 8]>) {
     let data = match held {
         Some(data) => data,
-        None => pack(&ctx.od, map),
+        None => packed(&ctx.od, map),
     };
     ctx.out.send(Frame { id, rtr: false, len: map.len, data });
 }
@@ -828,25 +846,28 @@ fn first_event(od: &Od, t: &Tpdo, now: Instant) -> Option<Instant> {
 }
 
 /// Resolves mapping record `index` with `count` objects (its sub 0, or the value written
-/// there) against the dictionary.
-fn resolve(od: &Od, index: u16, count: u8, rx: bool) -> Result<Mapping, Abort> {
+/// there) against the dictionary, into `map`; on `Err`, `map` maps nothing and is not `ok`.
+fn resolve(od: &Od, index: u16, count: u8, rx: bool, map: &mut Mapping) -> Result<(), Abort> {
+    map.count = 0;
+    map.len = 0;
+    map.ok = false;
     if count as usize > MAX_MAPPED || (count > 0 && od.pos(index, count).is_none()) {
         return Err(Abort::INVALID_VALUE);
     }
-    let mut map = Mapping { ok: true, ..Mapping::EMPTY };
     let mut len = 0u8;
-    for (k, sub) in (1..=count).enumerate() {
+    for sub in 1..=count {
         let value = od.value(index, sub).ok_or(Abort::INVALID_VALUE)?;
         let s = slice(od, value, rx)?;
         len += s.bytes;
         if len > 8 {
             return Err(Abort::PDO_LENGTH);
         }
-        map.slices[k % MAX_MAPPED] = s;
+        map.slices[(sub - 1) as usize % MAX_MAPPED] = s;
     }
     map.count = count;
     map.len = len;
-    Ok(map)
+    map.ok = true;
+    Ok(())
 }
 
 /// One mapping entry (index << 16 | sub << 8 | bits) resolved: a PDO-mappable entry of at
@@ -869,6 +890,12 @@ fn slice(od: &Od, value: u32, rx: bool) -> Result<Slice, Abort> {
         return Err(Abort::NOT_MAPPABLE);
     }
     Ok(Slice { pos: pos as u8, bytes })
+}
+
+/// [`pack`], not inlined: for every sender but the SYNC's transmissions.
+#[inline(never)]
+fn packed(od: &Od, map: &Mapping) -> [u8; 8] {
+    pack(od, map)
 }
 
 /// A TPDO's payload: each mapped value's low bytes, little-endian, in mapping order.
