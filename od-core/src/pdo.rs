@@ -264,7 +264,8 @@ pub struct Pdos {
 }
 
 // A SYNC picks its TPDOs by bit number without a bounds check.
-const _: () = assert!(MAX_TPDOS.is_power_of_two() && MAX_TPDOS <= 8 && MAX_RPDOS <= 8);
+// One loop serves both directions where they are handled alike.
+const _: () = assert!(MAX_TPDOS.is_power_of_two() && MAX_TPDOS <= 8 && MAX_RPDOS == MAX_TPDOS);
 
 impl Default for Pdos {
     fn default() -> Pdos {
@@ -391,7 +392,7 @@ impl Pdos {
     fn load(&mut self, od: &Od, rx: bool) -> u8 {
         let base = if rx { 0x1400 } else { 0x1800 };
         let mut n = 0;
-        while n < MAX_TPDOS.min(MAX_RPDOS) {
+        while n < MAX_TPDOS {
             let comm = base + n as u16;
             let Some(params) = Params::load(od, comm) else { break };
             let p = self.pdo(rx, n);
@@ -597,6 +598,7 @@ impl Pdos {
 
     /// Checks a write to 1005h or a PDO parameter (entry `pos`, rule `hook`) and applies it to the
     /// running PDOs; on `Ok` the node stores the value.
+    #[inline(never)]
     pub fn on_write(
         &mut self,
         ctx: &mut Context,
