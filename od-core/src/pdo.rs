@@ -592,6 +592,7 @@ impl Pdos {
             return Err(Abort::READ_ONLY);
         }
         self.write_event_timer(n as usize, ms as u32, now)?;
+        self.update_deadline();
         ctx.od.set(params.event as usize, ms as u32);
         Ok(())
     }
@@ -615,7 +616,9 @@ impl Pdos {
             }
             _ => Err(Abort::GENERAL),
         };
+        // What the rules may have changed: the SYNC's TPDOs and the earliest event timer.
         self.refresh_sync_tx();
+        self.update_deadline();
         result
     }
 
@@ -686,7 +689,6 @@ impl Pdos {
         if !rx {
             let next = if running && p.valid { first_event(&ctx.od, p, now) } else { None };
             self.next[n] = next;
-            self.update_deadline();
         }
         self.touch_rx_ids();
         Ok(())
@@ -713,7 +715,6 @@ impl Pdos {
                 } else if !was_event && running {
                     self.next[n] = first_event(od, p, now);
                 }
-                self.update_deadline();
             }
         }
         Ok(())
@@ -730,7 +731,6 @@ impl Pdos {
         } else if self.next[n].is_none() && self.running && t.valid && t.event_driven() {
             self.next[n] = Some(now.add_millis(ms as u64));
         }
-        self.update_deadline();
         Ok(())
     }
 
@@ -882,8 +882,9 @@ fn slice(od: &Od, value: u32, rx: bool) -> Result<Slice, Abort> {
     }
     let bytes = bits / 8;
     if rx && (0x0001..=0x0007).contains(&index) && sub == 0 {
-        // BOOLEAN, INTEGER8, UNSIGNED8: 1 byte; INTEGER16, UNSIGNED16: 2; the 32-bit ones 4.
-        let size = [1, 1, 2, 4, 1, 2, 4][index as usize - 1];
+        // Bytes of the type, a nibble each from 0001h: BOOLEAN, INTEGER8 1; INTEGER16 2;
+        // INTEGER32 4; UNSIGNED8 1; UNSIGNED16 2; UNSIGNED32 4.
+        let size = (0x4214_2110u32 >> (4 * index)) as u8 & 0xF;
         return if bytes == size { Ok(Slice { pos: NONE, bytes }) } else { Err(Abort::NOT_MAPPABLE) };
     }
     let pos = od.find(index, sub)?;
