@@ -320,6 +320,7 @@ impl Pdos {
         }
     }
 
+    #[inline(always)]
     fn refresh_sync_tx(&mut self) {
         let (mut counted, mut sampled) = (0, 0);
         for (n, t) in self.tpdos().iter().enumerate() {
@@ -365,8 +366,18 @@ impl Pdos {
         }
     }
 
-    fn update_deadline(&mut self) {
-        // Outside OPERATIONAL every `next` is `None`.
+    /// (Re)starts TPDO `n`'s event timer at `now`: its first transmission one period later
+    /// if it runs (OPERATIONAL, valid, type FEh/FFh, a period set), else none.
+    fn restart(&mut self, od: &Od, n: usize, now: Instant) {
+        let t = &self.tpdo[n];
+        let ms = Params::get(od, t.params.event, 0);
+        self.next[n] = (self.running && t.valid && t.event_driven() && ms != 0).then(|| now.add_millis(ms as u64));
+    }
+
+    /// Recomputes what follows from the PDOs' state: the TPDOs a SYNC concerns and the
+    /// earliest event-timer transmission (every `next` is `None` outside OPERATIONAL).
+    fn refresh(&mut self) {
+        self.refresh_sync_tx();
         self.deadline = self.next.iter().fold(None, |a, &b| earliest(a, b));
     }
 }
@@ -384,7 +395,7 @@ impl Pdos {
         self.deadline = None;
         self.ntpdo = self.load(od, false);
         self.nrpdo = self.load(od, true);
-        self.refresh_sync_tx();
+        self.refresh();
     }
 
     /// Reads the PDOs of one direction from their records (14xxh/16xxh, 18xxh/1Axxh), up to
@@ -423,13 +434,10 @@ impl Pdos {
             p.held = None;
         }
         self.last = [None; MAX_TPDOS];
-        for n in 0..MAX_TPDOS {
-            self.next[n] = match self.tpdos().get(n) {
-                Some(t) if operational => first_event(od, t, now),
-                _ => None,
-            };
+        for n in 0..self.tpdos().len() {
+            self.restart(od, n, now);
         }
-        self.update_deadline();
+        self.refresh();
     }
 
     /// Handles a frame that may be a SYNC, an RPDO or a PDO remote request.
@@ -555,7 +563,7 @@ impl Pdos {
                 }
             };
         }
-        self.update_deadline();
+        self.refresh();
     }
 
     /// When the next event-timer TPDO is due (`None` outside OPERATIONAL).
@@ -592,7 +600,7 @@ impl Pdos {
             return Err(Abort::READ_ONLY);
         }
         self.write_event_timer(n as usize, ms as u32, now)?;
-        self.update_deadline();
+        self.refresh();
         ctx.od.set(params.event as usize, ms as u32);
         Ok(())
     }
@@ -617,8 +625,7 @@ impl Pdos {
             _ => Err(Abort::GENERAL),
         };
         // What the rules may have changed: the SYNC's TPDOs and the earliest event timer.
-        self.refresh_sync_tx();
-        self.update_deadline();
+        self.refresh();
         result
     }
 
@@ -680,15 +687,13 @@ impl Pdos {
         value: u32,
         now: Instant,
     ) -> Result<(), Abort> {
-        let running = self.running;
         let p = self.pdo(rx, n);
         check_cob(nmt, ctx.od.get(p.params.cob as usize), value, p.map.ok)?;
         p.set_cob(value);
         p.count = 0;
         p.held = None;
         if !rx {
-            let next = if running && p.valid { first_event(&ctx.od, p, now) } else { None };
-            self.next[n] = next;
+            self.restart(&ctx.od, n, now);
         }
         self.touch_rx_ids();
         Ok(())
@@ -698,7 +703,6 @@ impl Pdos {
     /// starts or stops its event timer; an RPDO drops data not yet applied.
     fn write_type(&mut self, od: &Od, rx: bool, n: usize, value: u32, now: Instant) -> Result<(), Abort> {
         let ttype = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
-        let running = self.running;
         let p = self.pdo(rx, n);
         let allowed = if rx { rpdo_type_allowed(ttype) } else { tpdo_type_allowed(p.params.asynchronous, ttype) };
         if !allowed {
@@ -709,12 +713,9 @@ impl Pdos {
             p.ttype = ttype;
             p.count = 0;
             p.held = None;
-            if !rx {
-                if !p.event_driven() {
-                    self.next[n] = None;
-                } else if !was_event && running {
-                    self.next[n] = first_event(od, p, now);
-                }
+            // FEh and FFh alike keep the timer running; every other change starts or stops it.
+            if !rx && !(was_event && p.event_driven()) {
+                self.restart(od, n, now);
             }
         }
         Ok(())
@@ -839,12 +840,6 @@ pub fn tpdo_type_allowed(asynchronous: bool, ttype: u8) -> bool {
 /// FEh and FFh asynchronous.
 pub fn rpdo_type_allowed(ttype: u8) -> bool {
     matches!(ttype, 0..=240 | TYPE_ASYNC_MANUF | TYPE_ASYNC_PROFILE)
-}
-
-/// The first event-timer transmission of a TPDO started at `now`.
-fn first_event(od: &Od, t: &Tpdo, now: Instant) -> Option<Instant> {
-    let ms = Params::get(od, t.params.event, 0);
-    (t.valid && t.event_driven() && ms != 0).then(|| now.add_millis(ms as u64))
 }
 
 /// Resolves mapping record `index` with `count` objects (its sub 0, or the value written
