@@ -714,7 +714,8 @@ impl Pdos {
             p.count = 0;
             p.held = None;
             // FEh and FFh alike keep the timer running; every other change starts or stops it.
-            if !rx && !(was_event && p.event_driven()) {
+            let keeps_timer = was_event && p.event_driven();
+            if !rx && !keeps_timer {
                 self.restart(od, n, now);
             }
         }
