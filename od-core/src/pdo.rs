@@ -554,12 +554,12 @@ impl Pdos {
                 self.last[n] = Some(now);
             }
             // A changed event timer takes effect now, at the timer's next operation (manuals).
-            let period = Params::get(&ctx.od, t.params.event, 0) as u64;
+            let period = Params::get(&ctx.od, t.params.event, 0) as u64 * 1000;
             self.next[n] = match period {
                 0 => None,
-                ms => {
-                    let next = due.add_millis(ms);
-                    Some(if next > now { next } else { now.add_millis(ms) })
+                us => {
+                    let next = due.add_micros(us);
+                    Some(if next > now { next } else { now.add_micros(us) })
                 }
             };
         }
