@@ -412,9 +412,10 @@ impl Pdos {
             p.count = 0;
             p.held = None;
             p.set_cob(od.get(params.cob as usize));
-            // A mapping that does not resolve leaves the PDO unused (`ok` false).
-            let count = od.value(comm + 0x200, 0).unwrap_or(0);
-            let _ = resolve(od, comm + 0x200, count as u8, rx, &mut p.map);
+            // A mapping that does not resolve leaves the PDO unused (`ok` false), as does a
+            // missing mapping record (a count past `MAX_MAPPED` resolves to nothing).
+            let count = od.value(comm + 0x200, 0).map_or(u8::MAX, |c| c as u8);
+            let _ = resolve(od, comm + 0x200, count, rx, &mut p.map);
             n += 1;
         }
         n as u8
