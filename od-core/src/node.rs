@@ -354,7 +354,7 @@ impl<D: CanopenDevice> Node<D> {
     /// An RPDO or a PDO remote request.
     #[inline(never)]
     fn on_pdo_frame(&mut self, frame: &Frame, now: Instant) {
-        match self.pdo.on_frame(&mut self.ctx, self.nmt, frame, now) {
+        match self.pdo.on_pdo(&mut self.ctx, frame, now) {
             PdoEvent::None | PdoEvent::Sync { .. } => {}
             PdoEvent::Rtr(n) => {
                 let answer = RtrAnswer::new(&self.pdo, n);

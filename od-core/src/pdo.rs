@@ -16,7 +16,7 @@ use crate::context::Context;
 use crate::frame::{CanId, Frame, RxId};
 use crate::nmt::NmtState;
 use crate::od::{CoreHook, DataType, Od, MAX_ENTRIES};
-use crate::time::Instant;
+use crate::time::{earliest, Instant};
 
 /// Most transmit PDOs a node has (18xxh/1Axxh for xx = 00..03); further ones are not served.
 pub const MAX_TPDOS: usize = 4;
@@ -122,8 +122,9 @@ impl Slice {
     const EMPTY: Slice = Slice { pos: NONE, bytes: 0 };
 }
 
-/// A PDO's mapping resolved against the dictionary.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+/// A PDO's mapping resolved against the dictionary (equal to another when it maps the same:
+/// the slots past `count` do not count).
+#[derive(Clone, Copy, Eq, Debug)]
 struct Mapping {
     slices: [Slice; MAX_MAPPED],
     count: u8,
@@ -133,19 +134,24 @@ struct Mapping {
     ok: bool,
 }
 
-impl Mapping {
-    const EMPTY: Mapping = Mapping { slices: [Slice::EMPTY; MAX_MAPPED], count: 0, len: 0, ok: false };
-
-    fn slices(&self) -> &[Slice] {
-        &self.slices[..self.count as usize]
+impl PartialEq for Mapping {
+    fn eq(&self, other: &Mapping) -> bool {
+        (self.len, self.ok, self.slices()) == (other.len, other.ok, other.slices())
     }
 }
 
-/// Dictionary positions of one PDO's parameters.
+impl Mapping {
+    const EMPTY: Mapping = Mapping { slices: [Slice::EMPTY; MAX_MAPPED], count: 0, len: 0, ok: false };
+
+    #[inline(always)]
+    fn slices(&self) -> &[Slice] {
+        &self.slices[..(self.count as usize).min(MAX_MAPPED)]
+    }
+}
+
+/// Dictionary positions of one PDO's communication parameters.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 struct Params {
-    /// Communication record index (1400h + n, 1800h + n).
-    comm: u16,
     /// Sub 1 COB-ID.
     cob: u8,
     /// Sub 2 transmission type ([`NONE`] if not declared).
@@ -159,14 +165,18 @@ struct Params {
 }
 
 impl Params {
-    const EMPTY: Params = Params { comm: 0, cob: NONE, ttype: NONE, inhibit: NONE, event: NONE, asynchronous: false };
+    const EMPTY: Params = Params { cob: NONE, ttype: NONE, inhibit: NONE, event: NONE, asynchronous: false };
 
+    /// The record `comm` (1400h + n, 1800h + n), if it declares a COB-ID.
     fn load(od: &Od, comm: u16) -> Option<Params> {
         let at = |sub| od.pos(comm, sub).map_or(NONE, |p| p as u8);
-        let cob = od.pos(comm, 1)? as u8;
+        let cob = at(1);
+        if cob == NONE {
+            return None;
+        }
         let event = at(5);
         let asynchronous = event != NONE && od.entry(event as usize).access.writable();
-        Some(Params { comm, cob, ttype: at(2), inhibit: at(3), event, asynchronous })
+        Some(Params { cob, ttype: at(2), inhibit: at(3), event, asynchronous })
     }
 
     fn get(od: &Od, pos: u8, default: u32) -> u32 {
@@ -178,27 +188,30 @@ impl Params {
     }
 }
 
-/// A transmit PDO.
+/// A PDO, transmit or receive: its parameters, its mapping and its state.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-struct Tpdo {
+struct Pdo {
     params: Params,
     map: Mapping,
     id: CanId,
     valid: bool,
+    /// COB-ID bit 30 clear: a TPDO answers remote requests (an RPDO's bit 30 is reserved).
     rtr: bool,
     ttype: u8,
-    /// SYNCs counted towards the next transmission (types 1..=240).
+    /// SYNCs counted towards the next transmission (TPDO types 1..=240).
     count: u8,
-    /// Next event-timer transmission (types FEh/FFh with a non-zero event timer).
-    next: Option<Instant>,
-    /// Last event-driven transmission (for the inhibit time).
-    last: Option<Instant>,
-    /// Data sampled at the last SYNC (type FCh).
-    sample: Option<[u8; 8]>,
+    /// A TPDO of type FCh: the data sampled at the last SYNC. A synchronous RPDO: the data
+    /// received, written at the next SYNC.
+    held: Option<[u8; 8]>,
 }
 
-impl Tpdo {
-    const EMPTY: Tpdo = Tpdo {
+/// A transmit PDO.
+type Tpdo = Pdo;
+/// A receive PDO.
+type Rpdo = Pdo;
+
+impl Pdo {
+    const EMPTY: Pdo = Pdo {
         params: Params::EMPTY,
         map: Mapping::EMPTY,
         id: CanId::Std(0),
@@ -206,31 +219,19 @@ impl Tpdo {
         rtr: false,
         ttype: 0,
         count: 0,
-        next: None,
-        last: None,
-        sample: None,
+        held: None,
     };
 
     fn event_driven(&self) -> bool {
         matches!(self.ttype, TYPE_ASYNC_MANUF | TYPE_ASYNC_PROFILE)
     }
-}
 
-/// A receive PDO.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-struct Rpdo {
-    params: Params,
-    map: Mapping,
-    id: CanId,
-    valid: bool,
-    ttype: u8,
-    /// Data received for a synchronous RPDO, written at the next SYNC.
-    pending: Option<[u8; 8]>,
-}
-
-impl Rpdo {
-    const EMPTY: Rpdo =
-        Rpdo { params: Params::EMPTY, map: Mapping::EMPTY, id: CanId::Std(0), valid: false, ttype: 0, pending: None };
+    /// Takes COB-ID `cob` (checked or loaded).
+    fn set_cob(&mut self, cob: u32) {
+        self.id = CanId::from_cob_id(cob);
+        self.valid = cob & COB_INVALID == 0;
+        self.rtr = cob & COB_NO_RTR == 0;
+    }
 }
 
 /// PDO and SYNC state: the resolved configuration, counters and timers.
@@ -239,14 +240,21 @@ pub struct Pdos {
     /// [`CanId::key`] of the SYNC identifier (1005h), `u32::MAX` when the node consumes no
     /// SYNC: one compare per frame ([`Pdos::is_sync`]).
     sync_key: u32,
-    /// The TPDOs a SYNC concerns (valid, mapped, type 1..=240 or FCh), one bit each: a SYNC
+    /// The TPDOs a SYNC counts for (valid, mapped, type 1..=240), one bit each: a SYNC
     /// visits only them. Kept by [`Pdos::reset`] and [`Pdos::on_write`], which alone change
     /// those three.
     sync_tx: u8,
+    /// The TPDOs a SYNC samples (valid, mapped, type FCh), one bit each, kept alike.
+    sync_sample: u8,
     tpdo: [Tpdo; MAX_TPDOS],
     ntpdo: u8,
     rpdo: [Rpdo; MAX_RPDOS],
     nrpdo: u8,
+    /// Each TPDO's next event-timer transmission (types FEh/FFh with a non-zero event timer);
+    /// `None` for every one outside OPERATIONAL.
+    next: [Option<Instant>; MAX_TPDOS],
+    /// Each TPDO's last event-driven transmission (for the inhibit time).
+    last: [Option<Instant>; MAX_TPDOS],
     /// The node is OPERATIONAL and the PDOs run.
     running: bool,
     /// Earliest event-timer transmission.
@@ -255,15 +263,22 @@ pub struct Pdos {
     generation: u32,
 }
 
+// A SYNC picks its TPDOs by bit number without a bounds check.
+// One loop serves both directions where they are handled alike.
+const _: () = assert!(MAX_TPDOS.is_power_of_two() && MAX_TPDOS <= 8 && MAX_RPDOS == MAX_TPDOS);
+
 impl Default for Pdos {
     fn default() -> Pdos {
         Pdos {
             sync_key: u32::MAX,
             sync_tx: 0,
-            tpdo: [Tpdo::EMPTY; MAX_TPDOS],
+            sync_sample: 0,
+            tpdo: [Pdo::EMPTY; MAX_TPDOS],
             ntpdo: 0,
-            rpdo: [Rpdo::EMPTY; MAX_RPDOS],
+            rpdo: [Pdo::EMPTY; MAX_RPDOS],
             nrpdo: 0,
+            next: [None; MAX_TPDOS],
+            last: [None; MAX_TPDOS],
             running: false,
             deadline: None,
             generation: 0,
@@ -305,18 +320,20 @@ impl Pdos {
         }
     }
 
+    #[inline(always)]
     fn refresh_sync_tx(&mut self) {
-        let mut mask = 0;
+        let (mut counted, mut sampled) = (0, 0);
         for (n, t) in self.tpdos().iter().enumerate() {
-            if t.valid && t.map.ok && matches!(t.ttype, 1..=240 | TYPE_SYNC_RTR) {
-                mask |= 1 << n;
+            if t.valid && t.map.ok {
+                match t.ttype {
+                    1..=240 => counted |= 1 << n,
+                    TYPE_SYNC_RTR => sampled |= 1 << n,
+                    _ => {}
+                }
             }
         }
-        self.sync_tx = mask;
-    }
-
-    fn set_sync(&mut self, id: Option<CanId>) {
-        self.sync_key = id.map_or(u32::MAX, CanId::key);
+        self.sync_tx = counted;
+        self.sync_sample = sampled;
     }
 
     /// Is `frame` a SYNC (a data frame on the 1005h identifier)?
@@ -332,16 +349,36 @@ impl Pdos {
     }
 
     fn tpdos(&self) -> &[Tpdo] {
-        &self.tpdo[..self.ntpdo as usize]
+        &self.tpdo[..(self.ntpdo as usize).min(MAX_TPDOS)]
     }
 
     fn rpdos(&self) -> &[Rpdo] {
-        &self.rpdo[..self.nrpdo as usize]
+        &self.rpdo[..(self.nrpdo as usize).min(MAX_RPDOS)]
     }
 
-    fn update_deadline(&mut self) {
-        self.deadline =
-            if self.running { self.tpdo[..self.ntpdo as usize].iter().filter_map(|t| t.next).min() } else { None };
+    /// PDO `n` of a direction (`n` below its count).
+    #[inline(always)]
+    fn pdo(&mut self, rx: bool, n: usize) -> &mut Pdo {
+        if rx {
+            &mut self.rpdo[n]
+        } else {
+            &mut self.tpdo[n]
+        }
+    }
+
+    /// (Re)starts TPDO `n`'s event timer at `now`: its first transmission one period later
+    /// if it runs (OPERATIONAL, valid, type FEh/FFh, a period set), else none.
+    fn restart(&mut self, od: &Od, n: usize, now: Instant) {
+        let t = &self.tpdo[n];
+        let ms = Params::get(od, t.params.event, 0);
+        self.next[n] = (self.running && t.valid && t.event_driven() && ms != 0).then(|| now.add_millis(ms as u64));
+    }
+
+    /// Recomputes what follows from the PDOs' state: the TPDOs a SYNC concerns and the
+    /// earliest event-timer transmission (every `next` is `None` outside OPERATIONAL).
+    fn refresh(&mut self) {
+        self.refresh_sync_tx();
+        self.deadline = self.next.iter().fold(None, |a, &b| earliest(a, b));
     }
 }
 
@@ -350,39 +387,38 @@ impl Pdos {
     /// reset). The node is PRE-OPERATIONAL: nothing runs, SYNC counters start from zero.
     pub fn reset(&mut self, od: &Od, now: Instant) {
         let _ = now;
-        let p = &mut *self;
-        let generation = p.generation.wrapping_add(1);
-        *p = Pdos { generation, ..Pdos::default() };
-        p.set_sync(od.pos(0x1005, 0).map(|pos| CanId::from_cob_id(od.get(pos))));
-        for n in 0..MAX_TPDOS as u16 {
-            let Some(params) = Params::load(od, 0x1800 + n) else { break };
-            let cob = od.get(params.cob as usize);
-            let map = resolve(od, 0x1A00 + n, None, false).unwrap_or(Mapping::EMPTY);
-            let t = &mut p.tpdo[n as usize];
-            *t = Tpdo {
-                params,
-                map,
-                ttype: Params::get(od, params.ttype, TYPE_ASYNC_PROFILE as u32) as u8,
-                ..Tpdo::EMPTY
-            };
-            set_tpdo_cob(t, cob);
-            p.ntpdo += 1;
+        self.touch_rx_ids();
+        self.sync_key = od.pos(0x1005, 0).map_or(u32::MAX, |pos| CanId::from_cob_id(od.get(pos)).key());
+        self.running = false;
+        self.next = [None; MAX_TPDOS];
+        self.last = [None; MAX_TPDOS];
+        self.deadline = None;
+        self.ntpdo = self.load(od, false);
+        self.nrpdo = self.load(od, true);
+        self.refresh();
+    }
+
+    /// Reads the PDOs of one direction from their records (14xxh/16xxh, 18xxh/1Axxh), up to
+    /// the first missing one; how many there are.
+    fn load(&mut self, od: &Od, rx: bool) -> u8 {
+        let base = if rx { 0x1400 } else { 0x1800 };
+        let mut n = 0;
+        while n < MAX_TPDOS {
+            let comm = base + n as u16;
+            let Some(params) = Params::load(od, comm) else { break };
+            let p = self.pdo(rx, n);
+            p.params = params;
+            p.ttype = Params::get(od, params.ttype, TYPE_ASYNC_PROFILE as u32) as u8;
+            p.count = 0;
+            p.held = None;
+            p.set_cob(od.get(params.cob as usize));
+            // A mapping that does not resolve leaves the PDO unused (`ok` false), as does a
+            // missing mapping record (a count past `MAX_MAPPED` resolves to nothing).
+            let count = od.value(comm + 0x200, 0).map_or(u8::MAX, |c| c as u8);
+            let _ = resolve(od, comm + 0x200, count, rx, &mut p.map);
+            n += 1;
         }
-        for n in 0..MAX_RPDOS as u16 {
-            let Some(params) = Params::load(od, 0x1400 + n) else { break };
-            let cob = od.get(params.cob as usize);
-            let map = resolve(od, 0x1600 + n, None, true).unwrap_or(Mapping::EMPTY);
-            let r = &mut p.rpdo[n as usize];
-            *r = Rpdo {
-                params,
-                map,
-                ttype: Params::get(od, params.ttype, TYPE_ASYNC_PROFILE as u32) as u8,
-                ..Rpdo::EMPTY
-            };
-            set_rpdo_cob(r, cob);
-            p.nrpdo += 1;
-        }
-        p.refresh_sync_tx();
+        n as u8
     }
 
     /// Starts or stops the PDOs after an NMT state change: entering OPERATIONAL restarts the SYNC
@@ -390,21 +426,19 @@ impl Pdos {
     /// everything and drops synchronous RPDO data not yet applied.
     pub fn on_state(&mut self, od: &Od, nmt: NmtState, now: Instant) {
         let operational = nmt == NmtState::Operational;
-        let p = &mut *self;
-        if operational == p.running {
+        if operational == self.running {
             return;
         }
-        p.running = operational;
-        for t in p.tpdo[..p.ntpdo as usize].iter_mut() {
-            t.count = 0;
-            t.sample = None;
-            t.last = None;
-            t.next = if operational { first_event(od, t, now) } else { None };
+        self.running = operational;
+        for p in self.tpdo.iter_mut().chain(self.rpdo.iter_mut()) {
+            p.count = 0;
+            p.held = None;
         }
-        for r in p.rpdo[..p.nrpdo as usize].iter_mut() {
-            r.pending = None;
+        self.last = [None; MAX_TPDOS];
+        for n in 0..self.tpdos().len() {
+            self.restart(od, n, now);
         }
-        p.update_deadline();
+        self.refresh();
     }
 
     /// Handles a frame that may be a SYNC, an RPDO or a PDO remote request.
@@ -412,46 +446,41 @@ impl Pdos {
         if self.is_sync(frame) {
             return self.on_sync(ctx, nmt);
         }
+        self.on_pdo(ctx, frame, now)
+    }
+
+    /// Handles a frame that is no SYNC ([`Pdos::is_sync`]) and may be an RPDO or a PDO remote
+    /// request.
+    pub fn on_pdo(&mut self, ctx: &mut Context, frame: &Frame, now: Instant) -> PdoEvent {
+        let _ = now;
         if !self.running {
             return PdoEvent::None;
         }
-        let p = &mut *self;
         if frame.rtr {
-            for n in 0..p.ntpdo as usize {
-                let t = &p.tpdo[n];
-                if t.valid && t.id == frame.id {
-                    if !t.rtr || !t.map.ok {
-                        return PdoEvent::None;
-                    }
-                    return PdoEvent::Rtr(n as u8);
-                }
+            if let Some(n) = find(self.tpdos(), frame.id) {
+                let t = &self.tpdo[n as usize];
+                return if t.rtr && t.map.ok { PdoEvent::Rtr(n) } else { PdoEvent::None };
             }
-            for n in 0..p.nrpdo as usize {
-                let r = &p.rpdo[n];
-                if r.valid && r.id == frame.id {
-                    return PdoEvent::RpdoRtr(n as u8);
-                }
-            }
+            return match find(self.rpdos(), frame.id) {
+                Some(n) => PdoEvent::RpdoRtr(n),
+                None => PdoEvent::None,
+            };
+        }
+        let Some(n) = find(self.rpdos(), frame.id) else { return PdoEvent::None };
+        let r = &mut self.rpdo[n as usize];
+        // CiA 301: fewer bytes than mapped → not processed; more → the first ones are used.
+        if !r.map.ok || frame.len < r.map.len {
             return PdoEvent::None;
         }
-        for n in 0..p.nrpdo as usize {
-            let r = &mut p.rpdo[n];
-            if !(r.valid && r.id == frame.id) {
-                continue;
-            }
-            // CiA 301: fewer bytes than mapped → not processed; more → the first ones are used.
-            if !r.map.ok || frame.len < r.map.len {
-                return PdoEvent::None;
-            }
-            if r.ttype <= 240 {
-                r.pending = Some(frame.data);
-                return PdoEvent::None;
-            }
-            let map = r.map;
-            return if apply(&mut ctx.od, &map, &frame.data) { PdoEvent::Rpdo(n as u8) } else { PdoEvent::None };
+        if r.ttype <= 240 {
+            r.held = Some(frame.data);
+            return PdoEvent::None;
         }
-        let _ = now;
-        PdoEvent::None
+        if apply(&mut ctx.od, &r.map, &frame.data) {
+            PdoEvent::Rpdo(n)
+        } else {
+            PdoEvent::None
+        }
     }
 
     /// Handles a SYNC (the caller has matched the frame with [`Pdos::sync_id`]): sends the
@@ -459,41 +488,41 @@ impl Pdos {
     /// [`PdoEvent::Sync`] names them, or [`PdoEvent::None`] when the node ignores SYNC (STOPPED).
     #[inline(always)]
     pub fn on_sync(&mut self, ctx: &mut Context, nmt: NmtState) -> PdoEvent {
-        let p = &mut *self;
-        if !p.running {
+        if !self.running {
             // PRE-OPERATIONAL consumes SYNC (the device may use it); STOPPED does not.
             return if nmt == NmtState::PreOperational { PdoEvent::Sync { rpdos: 0 } } else { PdoEvent::None };
         }
-        let mut due = p.sync_tx;
+        let mut due = self.sync_tx;
         while due != 0 {
-            let t = &mut p.tpdo[due.trailing_zeros() as usize];
+            let t = &mut self.tpdo[due.trailing_zeros() as usize % MAX_TPDOS];
             due &= due - 1;
-            match t.ttype {
-                1..=240 => {
-                    t.count += 1;
-                    if t.count >= t.ttype {
-                        t.count = 0;
-                        let data = pack(&ctx.od, &t.map);
-                        ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
-                    }
-                }
-                TYPE_SYNC_RTR => t.sample = Some(pack(&ctx.od, &t.map)),
-                _ => {}
+            t.count += 1;
+            if t.count >= t.ttype {
+                t.count = 0;
+                let data = pack(&ctx.od, &t.map);
+                ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
             }
         }
-        let rpdos = if p.nrpdo == 0 { 0 } else { p.apply_pending(&mut ctx.od) };
+        // The rarer work, out of line: TPDOs sampled (type FCh), RPDOs written.
+        let rpdos = if self.sync_sample | self.nrpdo == 0 { 0 } else { self.sync_rest(&mut ctx.od) };
         PdoEvent::Sync { rpdos }
     }
 
-    /// Applies the synchronous RPDO data received since the last SYNC; the RPDOs written, one
-    /// bit each.
+    /// At a SYNC, after the transmissions: samples the TPDOs of type FCh and writes the
+    /// synchronous RPDO data received since the last SYNC; the RPDOs written, one bit each.
     #[inline(never)]
-    fn apply_pending(&mut self, od: &mut Od) -> u8 {
+    fn sync_rest(&mut self, od: &mut Od) -> u8 {
+        let mut due = self.sync_sample;
+        while due != 0 {
+            let t = &mut self.tpdo[due.trailing_zeros() as usize % MAX_TPDOS];
+            due &= due - 1;
+            t.held = Some(packed(od, &t.map));
+        }
         let mut rpdos = 0;
-        for n in 0..self.nrpdo as usize {
-            if let Some(data) = self.rpdo[n].pending.take() {
-                let map = self.rpdo[n].map;
-                if apply(od, &map, &data) {
+        for n in 0..self.rpdos().len() {
+            let r = &mut self.rpdo[n];
+            if let Some(data) = r.held.take() {
+                if apply(od, &r.map, &data) {
                     rpdos |= 1 << n;
                 }
             }
@@ -503,40 +532,39 @@ impl Pdos {
 
     /// Sends the event-timer TPDOs that are due.
     pub fn poll(&mut self, ctx: &mut Context, now: Instant) {
-        let p = &mut *self;
-        if !p.running || p.deadline.is_none_or(|d| d > now) {
+        if !self.running || self.deadline.is_none_or(|d| d > now) {
             return;
         }
-        for t in p.tpdo[..p.ntpdo as usize].iter_mut() {
-            let Some(due) = t.next else { continue };
+        for n in 0..self.tpdos().len() {
+            let Some(due) = self.next[n] else { continue };
             if due > now {
                 continue;
             }
+            let t = &self.tpdo[n];
             // The inhibit time (100 µs units) holds the transmission back, if declared.
             let inhibit = Params::get(&ctx.od, t.params.inhibit, 0) as u64 * 100;
-            if let Some(last) = t.last {
+            if let Some(last) = self.last[n] {
                 let free = last.add_micros(inhibit);
                 if inhibit > 0 && free > now {
-                    t.next = Some(free);
+                    self.next[n] = Some(free);
                     continue;
                 }
             }
             if t.valid && t.map.ok {
-                let data = pack(&ctx.od, &t.map);
-                ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
-                t.last = Some(now);
+                send(ctx, t.id, &t.map, None);
+                self.last[n] = Some(now);
             }
             // A changed event timer takes effect now, at the timer's next operation (manuals).
-            let period = Params::get(&ctx.od, t.params.event, 0) as u64;
-            t.next = match period {
+            let period = Params::get(&ctx.od, t.params.event, 0) as u64 * 1000;
+            self.next[n] = match period {
                 0 => None,
-                ms => {
-                    let next = due.add_millis(ms);
-                    Some(if next > now { next } else { now.add_millis(ms) })
+                us => {
+                    let next = due.add_micros(us);
+                    Some(if next > now { next } else { now.add_micros(us) })
                 }
             };
         }
-        p.update_deadline();
+        self.refresh();
     }
 
     /// When the next event-timer TPDO is due (`None` outside OPERATIONAL).
@@ -549,28 +577,19 @@ impl Pdos {
     /// reads its set points back this way). Nothing is sent for a PDO that does not exist, is
     /// invalid or outside OPERATIONAL.
     pub fn reply(&self, ctx: &mut Context, rpdo: u8, tpdo: u8) {
-        self.reply_inner(ctx, rpdo, tpdo)
+        let (Some(r), Some(t)) = (self.rpdos().get(rpdo as usize), self.tpdos().get(tpdo as usize)) else { return };
+        if self.running && r.valid && t.map.ok {
+            send(ctx, r.id, &t.map, None);
+        }
     }
 
     /// Answers a remote request for TPDO `n` ([`PdoEvent::Rtr`]): the data sampled at the
     /// last SYNC (type FCh) or else its current data, on its identifier.
     pub fn answer_rtr(&self, ctx: &mut Context, n: u8) {
         let Some(t) = self.tpdos().get(n as usize) else { return };
-        if !t.valid || !t.map.ok {
-            return;
+        if t.valid && t.map.ok {
+            send(ctx, t.id, &t.map, t.held);
         }
-        let data = t.sample.unwrap_or_else(|| pack(&ctx.od, &t.map));
-        ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
-    }
-
-    fn reply_inner(&self, ctx: &mut Context, rpdo: u8, tpdo: u8) {
-        let p = self;
-        let (Some(r), Some(t)) = (p.rpdos().get(rpdo as usize), p.tpdos().get(tpdo as usize)) else { return };
-        if !p.running || !r.valid || !t.map.ok {
-            return;
-        }
-        let frame = Frame { id: r.id, rtr: false, len: t.map.len, data: pack(&ctx.od, &t.map) };
-        ctx.out.send(frame);
     }
 
     /// Sets the event timer (18xxh.05) of TPDO `n` (0-based) to `ms`, with the checks and timing
@@ -581,15 +600,39 @@ impl Pdos {
         if !params.asynchronous {
             return Err(Abort::READ_ONLY);
         }
-        let pos = params.event as usize;
         self.write_event_timer(n as usize, ms as u32, now)?;
-        ctx.od.set(pos, ms as u32);
+        self.refresh();
+        ctx.od.set(params.event as usize, ms as u32);
         Ok(())
     }
 
     /// Checks a write to 1005h or a PDO parameter (entry `pos`, rule `hook`) and applies it to the
     /// running PDOs; on `Ok` the node stores the value.
+    #[inline(never)]
     pub fn on_write(
+        &mut self,
+        ctx: &mut Context,
+        nmt: NmtState,
+        hook: CoreHook,
+        pos: usize,
+        value: u32,
+        now: Instant,
+    ) -> Result<(), Abort> {
+        let result = match hook {
+            CoreHook::SyncCobId => self.write_sync(nmt, value),
+            CoreHook::PdoCobId | CoreHook::PdoTransmissionType | CoreHook::PdoEventTimer | CoreHook::PdoMapping => {
+                self.write_pdo(ctx, nmt, hook, pos, value, now)
+            }
+            _ => Err(Abort::GENERAL),
+        };
+        // What the rules may have changed: the SYNC's TPDOs and the earliest event timer.
+        self.refresh();
+        result
+    }
+
+    /// A PDO parameter: which PDO the entry's index names (14xxh/16xxh RPDO, 18xxh/1Axxh
+    /// TPDO), then the rule of its kind.
+    fn write_pdo(
         &mut self,
         ctx: &mut Context,
         nmt: NmtState,
@@ -600,32 +643,21 @@ impl Pdos {
     ) -> Result<(), Abort> {
         let e = ctx.od.entry(pos);
         let (index, sub) = (e.index, e.sub);
-        let result = match hook {
-            CoreHook::SyncCobId => self.write_sync(nmt, value),
-            CoreHook::PdoCobId => match pdo_of(index) {
-                Some((Dir::Tx, n)) if n < self.ntpdo as usize => self.write_tpdo_cob(ctx, nmt, n, value, now),
-                Some((Dir::Rx, n)) if n < self.nrpdo as usize => self.write_rpdo_cob(ctx, nmt, n, value),
-                _ => Err(Abort::UNSUPPORTED_ACCESS),
-            },
-            CoreHook::PdoTransmissionType => match pdo_of(index) {
-                Some((Dir::Tx, n)) if n < self.ntpdo as usize => self.write_tpdo_type(&ctx.od, n, value, now),
-                Some((Dir::Rx, n)) if n < self.nrpdo as usize => self.write_rpdo_type(n, value),
-                _ => Err(Abort::UNSUPPORTED_ACCESS),
-            },
-            CoreHook::PdoEventTimer => match pdo_of(index) {
-                Some((Dir::Tx, n)) if n < self.ntpdo as usize && sub == 5 => self.write_event_timer(n, value, now),
-                // RPDO deadline monitoring is not supported (no manual has it).
-                _ => Err(Abort::UNSUPPORTED_ACCESS),
-            },
-            CoreHook::PdoMapping => match map_of(index) {
-                Some((Dir::Tx, n)) if n < self.ntpdo as usize => self.write_mapping(ctx, nmt, Dir::Tx, n, sub, value),
-                Some((Dir::Rx, n)) if n < self.nrpdo as usize => self.write_mapping(ctx, nmt, Dir::Rx, n, sub, value),
-                _ => Err(Abort::UNSUPPORTED_ACCESS),
-            },
-            _ => Err(Abort::GENERAL),
-        };
-        self.refresh_sync_tx();
-        result
+        // 1400h..1BFFh: bit 11 (1800h) TPDO, bit 9 (x200h) mapping, the low 9 bits the number.
+        let rel = index.wrapping_sub(0x1400);
+        let (rx, mapping, n) = (rel & 0x400 == 0, rel & 0x200 != 0, (rel & 0x1FF) as usize);
+        let count = if rx { self.nrpdo } else { self.ntpdo };
+        if rel >= 0x800 || n >= count as usize {
+            return Err(Abort::UNSUPPORTED_ACCESS);
+        }
+        match hook {
+            CoreHook::PdoMapping if mapping => self.write_mapping(ctx, nmt, rx, n, index, sub, value),
+            CoreHook::PdoCobId if !mapping => self.write_cob(ctx, nmt, rx, n, value, now),
+            CoreHook::PdoTransmissionType if !mapping => self.write_type(&ctx.od, rx, n, value, now),
+            // RPDO deadline monitoring is not supported (no manual has it).
+            CoreHook::PdoEventTimer if !mapping && !rx && sub == 5 => self.write_event_timer(n, value, now),
+            _ => Err(Abort::UNSUPPORTED_ACCESS),
+        }
     }
 
     /// 1005h: PRE-OPERATIONAL only, as the object tables print it (08000022h otherwise; issue
@@ -637,75 +669,57 @@ impl Pdos {
         if value & COB_NO_RTR != 0 {
             return Err(Abort::INVALID_VALUE);
         }
-        let id = checked_id(value, true)?;
-        if self.sync_id() != Some(id) {
-            self.set_sync(Some(id));
+        let key = checked_id(value, true)?.key();
+        if self.sync_key != key {
+            self.sync_key = key;
             self.touch_rx_ids();
         }
         Ok(())
     }
 
-    fn write_tpdo_cob(
+    /// A COB-ID (D-PDO-2): the PDO takes it at once; a TPDO restarts its SYNC count and event
+    /// timer, an RPDO drops data not yet applied.
+    fn write_cob(
         &mut self,
         ctx: &mut Context,
         nmt: NmtState,
+        rx: bool,
         n: usize,
         value: u32,
         now: Instant,
     ) -> Result<(), Abort> {
-        let t = &self.tpdo[n];
-        let old = ctx.od.get(t.params.cob as usize);
-        check_cob(nmt, old, value, t.map.ok)?;
-        let t = &mut self.tpdo[n];
-        set_tpdo_cob(t, value);
-        t.count = 0;
-        t.sample = None;
-        t.next = if self.running && t.valid { first_event(&ctx.od, t, now) } else { None };
-        self.update_deadline();
+        let p = self.pdo(rx, n);
+        check_cob(nmt, ctx.od.get(p.params.cob as usize), value, p.map.ok)?;
+        p.set_cob(value);
+        p.count = 0;
+        p.held = None;
+        if !rx {
+            self.restart(&ctx.od, n, now);
+        }
         self.touch_rx_ids();
         Ok(())
     }
 
-    fn write_rpdo_cob(&mut self, ctx: &mut Context, nmt: NmtState, n: usize, value: u32) -> Result<(), Abort> {
-        let r = &self.rpdo[n];
-        let old = ctx.od.get(r.params.cob as usize);
-        check_cob(nmt, old, value, r.map.ok)?;
-        let r = &mut self.rpdo[n];
-        set_rpdo_cob(r, value);
-        r.pending = None;
-        self.touch_rx_ids();
-        Ok(())
-    }
-
-    fn write_tpdo_type(&mut self, od: &Od, n: usize, value: u32, now: Instant) -> Result<(), Abort> {
-        let t = &mut self.tpdo[n];
+    /// A transmission type (D-PDO-3). A TPDO whose type changes restarts its SYNC count and
+    /// starts or stops its event timer; an RPDO drops data not yet applied.
+    fn write_type(&mut self, od: &Od, rx: bool, n: usize, value: u32, now: Instant) -> Result<(), Abort> {
         let ttype = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
-        if !tpdo_type_allowed(t.params.asynchronous, ttype) {
+        let p = self.pdo(rx, n);
+        let allowed = if rx { rpdo_type_allowed(ttype) } else { tpdo_type_allowed(p.params.asynchronous, ttype) };
+        if !allowed {
             return Err(Abort::INVALID_VALUE);
         }
-        if ttype != t.ttype {
-            let was_event = t.event_driven();
-            t.ttype = ttype;
-            t.count = 0;
-            t.sample = None;
-            if !t.event_driven() {
-                t.next = None;
-            } else if !was_event && self.running {
-                t.next = first_event(od, t, now);
+        if rx || ttype != p.ttype {
+            let was_event = p.event_driven();
+            p.ttype = ttype;
+            p.count = 0;
+            p.held = None;
+            // FEh and FFh alike keep the timer running; every other change starts or stops it.
+            let keeps_timer = was_event && p.event_driven();
+            if !rx && !keeps_timer {
+                self.restart(od, n, now);
             }
-            self.update_deadline();
         }
-        Ok(())
-    }
-
-    fn write_rpdo_type(&mut self, n: usize, value: u32) -> Result<(), Abort> {
-        let ttype = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
-        if !rpdo_type_allowed(ttype) {
-            return Err(Abort::INVALID_VALUE);
-        }
-        let r = &mut self.rpdo[n];
-        r.ttype = ttype;
-        r.pending = None;
         Ok(())
     }
 
@@ -714,40 +728,35 @@ impl Pdos {
     /// period starts now and fires one period later.
     fn write_event_timer(&mut self, n: usize, value: u32, now: Instant) -> Result<(), Abort> {
         let ms = u16::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
-        let p = &mut *self;
-        let t = &mut p.tpdo[n];
+        let t = &self.tpdo[n];
         if ms == 0 {
-            t.next = None;
-        } else if t.next.is_none() && p.running && t.valid && t.event_driven() {
-            t.next = Some(now.add_millis(ms as u64));
+            self.next[n] = None;
+        } else if self.next[n].is_none() && self.running && t.valid && t.event_driven() {
+            self.next[n] = Some(now.add_millis(ms as u64));
         }
-        p.update_deadline();
         Ok(())
     }
 
-    /// A mapping write (D-PDO-5): PRE-OPERATIONAL only; only while the PDO is invalid; the
-    /// objects (sub 1..) only while sub 0 is 0; sub 0 = n checks the n objects and their total
-    /// length, and makes the mapping the PDO's.
+    /// A mapping write (D-PDO-5) to record `index`: PRE-OPERATIONAL only; only while the PDO
+    /// is invalid; the objects (sub 1..) only while sub 0 is 0; sub 0 = n checks the n objects
+    /// and their total length, and makes the mapping the PDO's.
+    #[allow(clippy::too_many_arguments)]
     fn write_mapping(
         &mut self,
         ctx: &mut Context,
         nmt: NmtState,
-        dir: Dir,
+        rx: bool,
         n: usize,
+        index: u16,
         sub: u8,
         value: u32,
     ) -> Result<(), Abort> {
         if nmt != NmtState::PreOperational {
             return Err(Abort::DEVICE_STATE);
         }
-        let (valid, index) = match dir {
-            Dir::Tx => (self.tpdo[n].valid, 0x1A00 + n as u16),
-            Dir::Rx => (self.rpdo[n].valid, 0x1600 + n as u16),
-        };
-        if valid {
+        if self.pdo(rx, n).valid {
             return Err(Abort::INVALID_VALUE);
         }
-        let rx = dir == Dir::Rx;
         if sub != 0 {
             if ctx.od.value(index, 0).unwrap_or(0) != 0 {
                 return Err(Abort::INVALID_VALUE);
@@ -759,37 +768,26 @@ impl Pdos {
             return Ok(());
         }
         let count = u8::try_from(value).map_err(|_| Abort::INVALID_VALUE)?;
-        let map = resolve(&ctx.od, index, Some(count), rx)?;
-        match dir {
-            Dir::Tx => self.tpdo[n].map = map,
-            Dir::Rx => self.rpdo[n].map = map,
-        }
+        let mut map = Mapping::EMPTY;
+        resolve(&ctx.od, index, count, rx, &mut map)?;
+        self.pdo(rx, n).map = map;
         Ok(())
     }
 }
 
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-enum Dir {
-    Tx,
-    Rx,
+/// The first PDO of `list` that is valid on identifier `id`.
+fn find(list: &[Pdo], id: CanId) -> Option<u8> {
+    list.iter().position(|p| p.valid && p.id == id).map(|n| n as u8)
 }
 
-/// Which PDO a communication record index belongs to.
-fn pdo_of(index: u16) -> Option<(Dir, usize)> {
-    match index {
-        0x1400..=0x15FF => Some((Dir::Rx, (index - 0x1400) as usize)),
-        0x1800..=0x19FF => Some((Dir::Tx, (index - 0x1800) as usize)),
-        _ => None,
-    }
-}
-
-/// Which PDO a mapping record index belongs to.
-fn map_of(index: u16) -> Option<(Dir, usize)> {
-    match index {
-        0x1600..=0x17FF => Some((Dir::Rx, (index - 0x1600) as usize)),
-        0x1A00..=0x1BFF => Some((Dir::Tx, (index - 0x1A00) as usize)),
-        _ => None,
-    }
+/// Sends a PDO frame on `id`: `held` data, else `map` packed from the dictionary.
+#[inline(never)]
+fn send(ctx: &mut Context, id: CanId, map: &Mapping, held: Option<[u8; 8]>) {
+    let data = match held {
+        Some(data) => data,
+        None => packed(&ctx.od, map),
+    };
+    ctx.out.send(Frame { id, rtr: false, len: map.len, data });
 }
 
 /// The identifier a PDO or SYNC COB-ID names, if well-formed: 11-bit with bits 11..28 clear,
@@ -830,17 +828,6 @@ fn check_cob(nmt: NmtState, old: u32, value: u32, mapped: bool) -> Result<(), Ab
     Ok(())
 }
 
-fn set_tpdo_cob(t: &mut Tpdo, cob: u32) {
-    t.id = CanId::from_cob_id(cob);
-    t.valid = cob & COB_INVALID == 0;
-    t.rtr = cob & COB_NO_RTR == 0;
-}
-
-fn set_rpdo_cob(r: &mut Rpdo, cob: u32) {
-    r.id = CanId::from_cob_id(cob);
-    r.valid = cob & COB_INVALID == 0;
-}
-
 /// Transmission types a TPDO accepts (D-PDO-3): an asynchronous TPDO (writable event timer)
 /// FDh, FEh, FFh; a synchronous one 1..=240 (every n-th SYNC), FCh and FDh (RTR only).
 pub fn tpdo_type_allowed(asynchronous: bool, ttype: u8) -> bool {
@@ -857,36 +844,29 @@ pub fn rpdo_type_allowed(ttype: u8) -> bool {
     matches!(ttype, 0..=240 | TYPE_ASYNC_MANUF | TYPE_ASYNC_PROFILE)
 }
 
-/// The first event-timer transmission of a TPDO started at `now`.
-fn first_event(od: &Od, t: &Tpdo, now: Instant) -> Option<Instant> {
-    let ms = Params::get(od, t.params.event, 0);
-    (t.valid && t.event_driven() && ms != 0).then(|| now.add_millis(ms as u64))
-}
-
-/// Resolves mapping record `index` (its sub 0, or `count` in its place) against the
-/// dictionary.
-fn resolve(od: &Od, index: u16, count: Option<u8>, rx: bool) -> Result<Mapping, Abort> {
-    let count = match count {
-        Some(c) => c,
-        None => od.value(index, 0).ok_or(Abort::NO_OBJECT)? as u8,
-    };
+/// Resolves mapping record `index` with `count` objects (its sub 0, or the value written
+/// there) against the dictionary, into `map`; on `Err`, `map` maps nothing and is not `ok`.
+fn resolve(od: &Od, index: u16, count: u8, rx: bool, map: &mut Mapping) -> Result<(), Abort> {
+    map.count = 0;
+    map.len = 0;
+    map.ok = false;
     if count as usize > MAX_MAPPED || (count > 0 && od.pos(index, count).is_none()) {
         return Err(Abort::INVALID_VALUE);
     }
-    let mut map = Mapping { ok: true, ..Mapping::EMPTY };
-    let mut bits = 0u32;
+    let mut len = 0u8;
     for sub in 1..=count {
         let value = od.value(index, sub).ok_or(Abort::INVALID_VALUE)?;
         let s = slice(od, value, rx)?;
-        bits += s.bytes as u32 * 8;
-        if bits > 64 {
+        len += s.bytes;
+        if len > 8 {
             return Err(Abort::PDO_LENGTH);
         }
-        map.slices[map.count as usize] = s;
-        map.count += 1;
+        map.slices[(sub - 1) as usize % MAX_MAPPED] = s;
     }
-    map.len = (bits / 8) as u8;
-    Ok(map)
+    map.count = count;
+    map.len = len;
+    map.ok = true;
+    Ok(())
 }
 
 /// One mapping entry (index << 16 | sub << 8 | bits) resolved: a PDO-mappable entry of at
@@ -897,41 +877,50 @@ fn slice(od: &Od, value: u32, rx: bool) -> Result<Slice, Abort> {
     if bits == 0 || bits % 8 != 0 || bits > 32 {
         return Err(Abort::NOT_MAPPABLE);
     }
+    let bytes = bits / 8;
     if rx && (0x0001..=0x0007).contains(&index) && sub == 0 {
-        let dummy = match index {
-            0x0001 | 0x0002 | 0x0005 => 8,
-            0x0003 | 0x0006 => 16,
-            _ => 32,
-        };
-        return if bits == dummy { Ok(Slice { pos: NONE, bytes: bits / 8 }) } else { Err(Abort::NOT_MAPPABLE) };
+        // Bytes of the type, a nibble each from 0001h: BOOLEAN, INTEGER8 1; INTEGER16 2;
+        // INTEGER32 4; UNSIGNED8 1; UNSIGNED16 2; UNSIGNED32 4.
+        let size = (0x4214_2110u32 >> (4 * index)) as u8 & 0xF;
+        return if bytes == size { Ok(Slice { pos: NONE, bytes }) } else { Err(Abort::NOT_MAPPABLE) };
     }
     let pos = od.find(index, sub)?;
     let e = od.entry(pos);
     if !e.pdo || bits > e.dtype.bits() {
         return Err(Abort::NOT_MAPPABLE);
     }
-    Ok(Slice { pos: pos as u8, bytes: bits / 8 })
+    Ok(Slice { pos: pos as u8, bytes })
+}
+
+/// [`pack`], not inlined: for every sender but the SYNC's transmissions.
+#[inline(never)]
+fn packed(od: &Od, map: &Mapping) -> [u8; 8] {
+    pack(od, map)
 }
 
 /// A TPDO's payload: each mapped value's low bytes, little-endian, in mapping order.
-#[inline]
+#[inline(always)]
 fn pack(od: &Od, map: &Mapping) -> [u8; 8] {
-    // Every value is written as four bytes and the cursor moves by its mapped length: fixed
-    // size copies, no call, and the bytes past the mapping are overwritten or cut off.
+    // Every value is written as four bytes and the cursor moves by its mapped length: the
+    // bytes past a value's length are overwritten by the next value or cleared below. A
+    // mapping holds at most 8 bytes, so every value starts at 0..=7.
     let mut buf = [0u8; 12];
     let mut at = 0usize;
     for s in map.slices() {
         let v = od.get(s.pos as usize).to_le_bytes();
-        if let Some(dst) = buf.get_mut(at..at + 4) {
-            dst.copy_from_slice(&v);
-        }
+        let i = at % 8;
+        buf[i] = v[0];
+        buf[i + 1] = v[1];
+        buf[i + 2] = v[2];
+        buf[i + 3] = v[3];
         at += s.bytes as usize;
     }
-    let mut data = [0u8; 8];
-    data.copy_from_slice(&buf[..8]);
     // Bytes past the payload are zero (`Frame::data` contract).
-    let keep = if map.len >= 8 { u64::MAX } else { (1u64 << (8 * map.len)) - 1 };
-    (u64::from_le_bytes(data) & keep).to_le_bytes()
+    // The low `len` bytes: two shifts of at most 32 bits each, so `len` 0 and 8 need no test.
+    let half = 4 * u32::from(map.len);
+    let keep = !(u64::MAX.wrapping_shl(half).wrapping_shl(half));
+    let data = u64::from_le_bytes([buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6], buf[7]]);
+    (data & keep).to_le_bytes()
 }
 
 /// Writes an RPDO's payload into its mapped entries, after checking every value against the
@@ -939,24 +928,22 @@ fn pack(od: &Od, map: &Mapping) -> [u8; 8] {
 /// whole (D-PDO-6). Returns whether it was written.
 fn apply(od: &mut Od, map: &Mapping, data: &[u8; 8]) -> bool {
     let mut values = [0u32; MAX_MAPPED];
-    let mut at = 0usize;
+    let word = u64::from_le_bytes(*data);
+    let mut at = 0u32;
     for (k, s) in map.slices().iter().enumerate() {
-        let n = s.bytes as usize;
-        let mut raw = [0u8; 4];
-        raw[..n].copy_from_slice(&data[at..at + n]);
+        let n = s.bytes as u32;
+        // The slice's bytes, zero-extended (a mapping holds at most 8 bytes: `at` <= 7).
+        let mut v = (word >> (8 * (at % 8))) as u32 & (u32::MAX >> (32 - 8 * n));
         at += n;
         if s.pos == NONE {
             continue;
         }
         let e = od.entry(s.pos as usize);
-        let mut v = u32::from_le_bytes(raw);
-        let size = e.dtype.size();
-        if n < size && e.dtype.is_signed() && raw[n - 1] & 0x80 != 0 {
-            // A signed object mapped shorter than its type: sign-extend within the type.
-            v |= !0u32 << (n * 8);
-            if size < 4 {
-                v &= (1u32 << (size * 8)) - 1;
-            }
+        let size = e.dtype.size() as u32;
+        if e.dtype.is_signed() {
+            // A signed object mapped shorter than its type: sign-extended within the type.
+            let shift = 32 - 8 * n;
+            v = (((v << shift) as i32 >> shift) as u32) & (u32::MAX >> (32 - 8 * size));
         }
         if let Some((lo, hi)) = e.limits() {
             let x = e.dtype.to_i64(v);

@@ -544,3 +544,33 @@ mod model {
         }
     }
 }
+
+/// A TPDO whose communication record has no mapping record beside it.
+static NO_MAPPING: &[Entry] = &[
+    Entry::var(0x1000, "Device type", Unsigned32, Ro, 0),
+    Entry::var(0x1005, "COB-ID SYNC", Unsigned32, Rw, 0x80).group(Group::Comm).hook(core(SyncCobId)),
+    Entry::record(0x1800, "TPDO1 communication parameter", 2, Const),
+    Entry::member(0x1800, 1, "COB-ID", Unsigned32, Rw, 0).plus_node_id(0x180).hook(core(PdoCobId)),
+    Entry::member(0x1800, 2, "Transmission type", Unsigned8, Rw, 0x01).hook(core(PdoTransmissionType)),
+];
+
+/// A PDO without a mapping record maps nothing valid: it is unused (no SYNC transmission, no
+/// remote answer), as a stored mapping that does not resolve.
+#[test]
+fn a_pdo_without_a_mapping_record_is_unused() {
+    struct Bare;
+    impl Device for Bare {
+        fn table(&self) -> &'static [Entry] {
+            NO_MAPPING
+        }
+    }
+    impl CanopenDevice for Bare {}
+    let mut n = Node::new(Bare, 5, Bitrate::K500);
+    n.poll(at(0));
+    n.on_frame(&Frame::std(0, &[0x01, 0x05]), at(0));
+    while n.next_output().is_some() {}
+    assert!(!n.pdos().tpdo[0].map.ok);
+    n.on_frame(&Frame::std(0x80, &[]), at(1));
+    n.on_frame(&Frame::remote(CanId::Std(0x185), 0), at(1));
+    assert_eq!(n.next_output(), None, "no TPDO without a mapping");
+}
