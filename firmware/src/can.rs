@@ -8,15 +8,14 @@
 //! changes so the device raises and clears its EMCYs and LED states.
 
 use board_plan::errors::{ErrorTracker, Esr};
-use board_plan::filters::{banks, Bank, BANKS};
+use board_plan::filters::{each_bank, mask32, Bank, BANKS};
 use board_plan::timing;
 use board_plan::txq::TxQueue;
 use core::num::{NonZeroU16, NonZeroU8};
 use embassy_futures::select::{select, Either};
-use embassy_stm32::can::filter::{BankConfig, ListEntry16, ListEntry32, Mask32};
 use embassy_stm32::can::util::NominalBitTiming;
 use embassy_stm32::can::{
-    BufferedCanRx, Can, CanTx, ExtendedId, Fifo, Frame as HwFrame, Id, Mailbox, RxBuf as HwRxBuf, StandardId,
+    BufferedCanRx, Can, CanTx, ExtendedId, Frame as HwFrame, Id, Mailbox, RxBuf as HwRxBuf, StandardId,
 };
 use embassy_stm32::pac;
 use embassy_time::{with_deadline, Duration, Instant};
@@ -92,27 +91,53 @@ fn from_hw(frame: &HwFrame) -> Frame {
     }
 }
 
-/// One filter bank as the driver programs it.
-fn bank_config(bank: &Bank) -> BankConfig {
-    let entry32 = |r: &RxId| match hw_id(r.id) {
-        Some(id) if r.rtr => ListEntry32::remote_frames_with_id(id),
-        Some(id) => ListEntry32::data_frames_with_id(id),
-        None => ListEntry32::data_frames_with_id(StandardId::ZERO),
-    };
-    match bank {
-        Bank::List16(entries) => BankConfig::List16(entries.map(|r| {
-            let id = match r.id {
-                CanId::Std(id) => StandardId::new(id).unwrap_or(StandardId::ZERO),
-                CanId::Ext(_) => StandardId::ZERO,
-            };
-            if r.rtr {
-                ListEntry16::remote_frames_with_id(id)
-            } else {
-                ListEntry16::data_frames_with_id(id)
-            }
-        })),
-        Bank::List32(entries) => BankConfig::List32([entry32(&entries[0]), entry32(&entries[1])]),
-        Bank::AcceptAll => BankConfig::Mask32(Mask32::accept_all()),
+/// The acceptance filters, written whole rather than through the driver's per-bank calls
+/// (RM0008 24.7.4, 24.9.5): the filters in initialisation mode and every bank off, then bank by
+/// bank from 0 its two registers, mode and scale, then all of them on FIFO 0 (frames keep their
+/// order) and the banks used on.
+struct FilterWriter {
+    /// Banks written so far.
+    n: usize,
+    /// Identifier-list mode (else mask mode), a bit per bank (CAN_FM1R).
+    list: u32,
+    /// One 32-bit filter (else two 16-bit ones), a bit per bank (CAN_FS1R).
+    scale32: u32,
+}
+
+impl FilterWriter {
+    fn begin() -> FilterWriter {
+        let can = pac::CAN;
+        can.fmr().modify(|w| w.set_finit(true));
+        can.fa1r().write(|w| w.0 = 0);
+        FilterWriter { n: 0, list: 0, scale32: 0 }
+    }
+
+    /// The next bank; nothing once all [`BANKS`] are used.
+    fn bank(&mut self, list: bool, scale32: bool, (fr1, fr2): (u32, u32)) {
+        if self.n >= BANKS {
+            return;
+        }
+        let bank = pac::CAN.fb(self.n);
+        bank.fr1().write(|w| w.0 = fr1);
+        bank.fr2().write(|w| w.0 = fr2);
+        self.list |= (list as u32) << self.n;
+        self.scale32 |= (scale32 as u32) << self.n;
+        self.n += 1;
+    }
+
+    /// The next bank as `board_plan::filters` packed it.
+    fn put(&mut self, bank: Bank) {
+        let (list, scale32) = bank.mode();
+        self.bank(list, scale32, bank.registers());
+    }
+
+    fn end(self) {
+        let can = pac::CAN;
+        can.fm1r().write(|w| w.0 = self.list);
+        can.fs1r().write(|w| w.0 = self.scale32);
+        can.ffa1r().write(|w| w.0 = 0);
+        can.fa1r().write(|w| w.0 = (1 << self.n) - 1);
+        can.fmr().modify(|w| w.set_finit(false));
     }
 }
 
@@ -121,7 +146,7 @@ impl Bus {
     /// receiving into `rx`. No filter bank is enabled until [`Bus::set_filters`]: the controller
     /// receives nothing before the node says what it wants.
     pub async fn start(mut can: Can<'static>, rx: &'static mut RxBuf, rate: Bitrate) -> Bus {
-        can.modify_filters().clear();
+        FilterWriter::begin().end();
         can.modify_config().set_bit_timing(bit_timing(rate));
         can.enable().await;
         let (tx, rx_half) = can.split();
@@ -157,29 +182,21 @@ impl Bus {
     /// Opens the acceptance filters to every frame (while the node detects the rate: any frame
     /// received without error proves it).
     pub fn accept_all(&mut self) {
-        let mut filters = self.can.modify_filters();
-        filters.clear();
-        filters.enable_bank(0, Fifo::Fifo0, BankConfig::Mask32(Mask32::accept_all()));
+        let mut filters = FilterWriter::begin();
+        filters.put(Bank::AcceptAll);
+        filters.end();
     }
 
     /// Programs the acceptance filters to pass exactly `ids`, and the 29-bit data frames each
     /// (identifier, mask) of `masks` passes (a J1939 node's), one bank each after the lists (all
     /// banks on FIFO 0, so frames keep their order).
     pub fn set_filters(&mut self, ids: &[RxId], masks: &[(u32, u32)]) {
-        let banks = banks(ids, BANKS.saturating_sub(masks.len()));
-        let mut filters = self.can.modify_filters();
-        filters.clear();
-        for (i, bank) in banks.iter().enumerate() {
-            filters.enable_bank(i as u8, Fifo::Fifo0, bank_config(bank));
+        let mut filters = FilterWriter::begin();
+        each_bank(ids, BANKS.saturating_sub(masks.len()), |bank| filters.put(bank));
+        for &(id, mask) in masks {
+            filters.bank(false, true, mask32(id, mask));
         }
-        for (k, &(id, mask)) in masks.iter().enumerate().take(BANKS - banks.len()) {
-            let (Some(id), Some(mask)) = (ExtendedId::new(id & 0x1FFF_FFFF), ExtendedId::new(mask & 0x1FFF_FFFF))
-            else {
-                continue;
-            };
-            let bank = BankConfig::Mask32(Mask32::frames_with_ext_id(id, mask));
-            filters.enable_bank((banks.len() + k) as u8, Fifo::Fifo0, bank);
-        }
+        filters.end();
     }
 
     /// Queues a frame for transmission.
