@@ -19,7 +19,6 @@ use embassy_stm32::can::{
 };
 use embassy_stm32::pac;
 use embassy_time::{with_deadline, Duration, Instant};
-use heapless::Vec;
 use od_core::node::BusEvent;
 use od_core::{Bitrate, CanId, Frame};
 
@@ -34,9 +33,6 @@ pub const FLUSH_TIMEOUT: Duration = Duration::from_millis(100);
 
 /// The receive queue's storage.
 pub type RxBuf = HwRxBuf<RX_DEPTH>;
-
-/// The events one look at the controller can produce: the error-state changes and a lost frame.
-pub type Events = Vec<BusEvent, 5>;
 
 /// The node's CAN bus.
 pub struct Bus {
@@ -234,24 +230,21 @@ impl Bus {
         self.rx.try_read().ok().map(|envelope| from_hw(&envelope.frame))
     }
 
-    /// What changed in the controller since the last look: a frame lost to a full receive FIFO,
-    /// the last protocol error, the error counters and the fault confinement state.
-    pub fn events(&mut self) -> Events {
+    /// What changed in the controller since the last look, handed to `event` in this order: a
+    /// frame lost to a full receive FIFO, the last protocol error, the error counters and the
+    /// fault confinement state.
+    pub fn events(&mut self, mut event: impl FnMut(BusEvent)) {
         let can = pac::CAN;
-        let mut events = Events::new();
         if can.rfr(0).read().fovr() {
             can.rfr(0).write(|w| w.set_fovr(true));
-            let _ = events.push(BusEvent::RxOverrun);
+            event(BusEvent::RxOverrun);
         }
         let esr = Esr::from_bits(can.esr().read().0);
         if (1..=6).contains(&esr.lec) {
             // "Set by software": a new error shows up as a code 1..6 again.
             can.esr().write_value(pac::can::regs::Esr(7 << 4));
         }
-        for event in self.errors.update(esr) {
-            let _ = events.push(event);
-        }
-        events
+        self.errors.each(esr, event);
     }
 
     /// Waits until a frame is received or a mailbox can take the next waiting frame.

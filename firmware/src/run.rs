@@ -164,9 +164,7 @@ where
             node.on_frame(&frame, t);
             serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
         }
-        for event in bus.events() {
-            node.on_bus_event(event, t);
-        }
+        bus.events(|event| node.on_bus_event(event, t));
         serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
         if node.next_deadline().is_some_and(|d| d <= t) {
             node.poll(t);
