@@ -9,14 +9,16 @@
 
 use board_plan::errors::{ErrorTracker, Esr};
 use board_plan::filters::{each_bank, mask32, Bank, BANKS};
+use board_plan::mailbox::{self, Slot};
 use board_plan::timing;
 use board_plan::txq::TxQueue;
+use boards::mcu::TX_DONE;
+use core::future::poll_fn;
 use core::num::{NonZeroU16, NonZeroU8};
+use core::task::Poll;
 use embassy_futures::select::{select, Either};
 use embassy_stm32::can::util::NominalBitTiming;
-use embassy_stm32::can::{
-    BufferedCanRx, Can, CanTx, ExtendedId, Frame as HwFrame, Id, Mailbox, RxBuf as HwRxBuf, StandardId,
-};
+use embassy_stm32::can::{BufferedCanRx, Can, Frame as HwFrame, Id, RxBuf as HwRxBuf};
 use embassy_stm32::pac;
 use embassy_time::{with_deadline, Duration, Instant};
 use od_core::node::BusEvent;
@@ -37,7 +39,6 @@ pub type RxBuf = HwRxBuf<RX_DEPTH>;
 /// The node's CAN bus.
 pub struct Bus {
     can: Can<'static>,
-    tx: CanTx<'static>,
     rx: BufferedCanRx<'static, RX_DEPTH>,
     queue: TxQueue,
     errors: ErrorTracker,
@@ -51,25 +52,6 @@ fn bit_timing(rate: Bitrate) -> NominalBitTiming {
         seg1: NonZeroU8::new(t.seg1).unwrap_or(NonZeroU8::MIN),
         seg2: NonZeroU8::new(t.seg2).unwrap_or(NonZeroU8::MIN),
         sync_jump_width: NonZeroU8::new(t.sjw).unwrap_or(NonZeroU8::MIN),
-    }
-}
-
-/// The identifier as the driver takes it.
-fn hw_id(id: CanId) -> Option<Id> {
-    match id {
-        CanId::Std(id) => StandardId::new(id).map(Id::Standard),
-        CanId::Ext(id) => ExtendedId::new(id).map(Id::Extended),
-    }
-}
-
-/// A core frame as the driver takes it (`None` for an identifier out of range, which the core
-/// never makes).
-fn to_hw(frame: &Frame) -> Option<HwFrame> {
-    let id = hw_id(frame.id)?;
-    if frame.rtr {
-        HwFrame::new_remote(id, frame.len as usize).ok()
-    } else {
-        HwFrame::new_data(id, frame.payload()).ok()
     }
 }
 
@@ -145,8 +127,9 @@ impl Bus {
         FilterWriter::begin().end();
         can.modify_config().set_bit_timing(bit_timing(rate));
         can.enable().await;
-        let (tx, rx_half) = can.split();
-        Bus { can, tx, rx: rx_half.buffered(rx), queue: TxQueue::default(), errors: ErrorTracker::default() }
+        // The transmit half is not kept: the firmware writes the mailboxes itself (`pump`).
+        let (_, rx_half) = can.split();
+        Bus { can, rx: rx_half.buffered(rx), queue: TxQueue::default(), errors: ErrorTracker::default() }
     }
 
     /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset, a candidate of
@@ -160,15 +143,15 @@ impl Bus {
             loop {
                 self.pump();
                 let empty = self.queue.is_empty();
-                wait_mailboxes(&self.tx).await;
-                if empty && self.tx.is_idle() {
+                wait_mailboxes().await;
+                if empty && empty_mailboxes() == 3 {
                     break;
                 }
             }
         })
         .await;
-        for mb in [Mailbox::Mailbox0, Mailbox::Mailbox1, Mailbox::Mailbox2] {
-            self.tx.abort(mb);
+        for i in 0..3 {
+            abort(i);
         }
         self.queue.clear();
         self.can.modify_config().set_bit_timing(bit_timing(rate)).set_silent(silent);
@@ -205,22 +188,28 @@ impl Bus {
         self.queue.dropped()
     }
 
-    /// Hands the mailboxes the most urgent waiting frames. A frame a mailbox gave up for a more
+    /// Hands the mailboxes the most urgent waiting frames, through their registers
+    /// (`board_plan::mailbox` decides where each goes). A frame a mailbox gives up for a more
     /// urgent one goes back into the queue.
     pub fn pump(&mut self) {
+        let can = pac::CAN;
         while let Some(frame) = self.queue.peek() {
-            let Some(hw) = to_hw(frame) else {
-                self.queue.pop();
-                continue;
+            let tsr = can.tsr().read();
+            let pending = [0, 1, 2].map(|i| (!tsr.tme(i)).then(|| can.tx(i).tir().read().0));
+            let (i, back) = match mailbox::choose(frame, pending) {
+                Slot::Free(i) => (i, None),
+                Slot::Replace(i) => (i, abort(i)),
+                Slot::Wait => break,
             };
-            match self.tx.try_write(&hw) {
-                Ok(status) => {
-                    self.queue.pop();
-                    if let Some(back) = status.dequeued_frame() {
-                        self.queue.push(from_hw(back));
-                    }
-                }
-                Err(_) => break,
+            let Some(frame) = self.queue.pop() else { break };
+            let [tir, tdtr, tdlr, tdhr] = mailbox::registers(&frame);
+            let mb = can.tx(i);
+            mb.tdtr().write(|w| w.0 = tdtr);
+            mb.tdlr().write(|w| w.0 = tdlr);
+            mb.tdhr().write(|w| w.0 = tdhr);
+            mb.tir().write(|w| w.0 = tir | mailbox::TXRQ);
+            if let Some(back) = back {
+                self.queue.push(back);
             }
         }
     }
@@ -253,7 +242,7 @@ impl Bus {
             self.rx.wait_not_empty().await;
             return;
         }
-        match select(self.rx.wait_not_empty(), wait_mailboxes(&self.tx)).await {
+        match select(self.rx.wait_not_empty(), wait_mailboxes()).await {
             Either::First(()) | Either::Second(()) => {}
         }
     }
@@ -262,16 +251,44 @@ impl Bus {
 /// Waits until a mailbox can take the next frame. If one is free already, the frame was refused
 /// because one with the same identifier is still pending (the bxCAN would not keep their
 /// order): then wait for every mailbox to empty, rather than return at once and spin.
-async fn wait_mailboxes(tx: &CanTx<'static>) {
-    if can_take_more() {
-        tx.flush_all().await
-    } else {
-        tx.flush_any().await
-    }
+async fn wait_mailboxes() {
+    let all = empty_mailboxes() > 0;
+    poll_fn(|cx| {
+        TX_DONE.register(cx.waker());
+        let empty = empty_mailboxes();
+        if empty == 3 || (!all && empty > 0) {
+            Poll::Ready(())
+        } else {
+            Poll::Pending
+        }
+    })
+    .await
 }
 
-/// Is any transmit mailbox empty?
-fn can_take_more() -> bool {
+/// Aborts the frame in mailbox `i` and returns it; `None` if the mailbox was empty or its frame
+/// went out before the abort took effect.
+fn abort(i: usize) -> Option<Frame> {
+    let can = pac::CAN;
+    if can.tsr().read().tme(i) {
+        return None;
+    }
+    can.tsr().write(|w| w.set_abrq(i, true));
+    // The abort completes once the frame is out of the mailbox: sent (TXOK) or not.
+    let tsr = loop {
+        let tsr = can.tsr().read();
+        if !tsr.abrq(i) {
+            break tsr;
+        }
+    };
+    if tsr.txok(i) {
+        return None;
+    }
+    let mb = can.tx(i);
+    Some(mailbox::frame_of([mb.tir().read().0, mb.tdtr().read().0, mb.tdlr().read().0, mb.tdhr().read().0]))
+}
+
+/// How many of the three transmit mailboxes are empty.
+fn empty_mailboxes() -> usize {
     let tsr = pac::CAN.tsr().read();
-    (0..3).any(|i| tsr.tme(i))
+    (0..3).filter(|&i| tsr.tme(i)).count()
 }

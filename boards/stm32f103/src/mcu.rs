@@ -6,21 +6,45 @@ use board_plan::straps::Straps;
 use embassy_stm32::can::{self, Can};
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
+use embassy_stm32::interrupt::typelevel::{self, Binding};
 use embassy_stm32::peripherals::{CAN, FLASH, IWDG, PA11, PA12, PB5};
 use embassy_stm32::rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPreDiv, PllSource, Sysclk};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, pac, Config, Peri};
+use embassy_sync::waitqueue::AtomicWaker;
 
 bind_interrupts!(
-    /// The bxCAN's four interrupts, bound to Embassy's handlers.
+    /// The bxCAN's receive and error interrupts, bound to Embassy's handlers; the transmit
+    /// interrupt is the board's own (`USB_HP_CAN1_TX`).
     pub struct CanIrqs {
-        USB_HP_CAN1_TX => can::TxInterruptHandler<CAN>;
         USB_LP_CAN1_RX0 => can::Rx0InterruptHandler<CAN>;
         CAN1_RX1 => can::Rx1InterruptHandler<CAN>;
         CAN1_SCE => can::SceInterruptHandler<CAN>;
     }
 );
+
+// SAFETY: `Can::new` asks for a transmit interrupt handler that acknowledges the completed
+// requests (RQCPx, or the interrupt fires again at once) and wakes whoever waits for a mailbox.
+// `USB_HP_CAN1_TX` below does both for the firmware, which writes the mailboxes itself and
+// waits on `TX_DONE`; it uses none of Embassy's transmit futures, whose wakers Embassy's handler
+// would wake, nor its buffered transmit mode, which that handler serves (and so links).
+unsafe impl Binding<typelevel::USB_HP_CAN1_TX, can::TxInterruptHandler<CAN>> for CanIrqs {}
+
+/// Woken by the transmit interrupt: a mailbox's request completed (sent or aborted).
+pub static TX_DONE: AtomicWaker = AtomicWaker::new();
+
+/// The bxCAN transmit interrupt (the vector table names it): acknowledges every completed
+/// request and wakes [`TX_DONE`].
+#[no_mangle]
+unsafe extern "C" fn USB_HP_CAN1_TX() {
+    pac::CAN.tsr().write(|w| {
+        for i in 0..3 {
+            w.set_rqcp(i, true);
+        }
+    });
+    TX_DONE.wake();
+}
 
 /// The watchdog's timeout: the main loop turns at least once per sample period (1 ms) and a
 /// parameter save (one 1 KiB page erased, at most 40 ms on the F103, plus the writes) is the
