@@ -1,9 +1,9 @@
 //! Small memory routines for the image: `memcpy`, `memmove`, `memset`, `memcmp`, `bcmp` and
-//! their ARM EABI entry points (`__aeabi_memcpy`, `__aeabi_memclr8`, ...), in Thumb-2 assembly
-//! (`mem.s`; D-ARCH-7).
+//! their ARM EABI entry points (`__aeabi_memcpy`, `__aeabi_memclr8`, ...), and the 64-bit shifts
+//! `__aeabi_llsl` and `__aeabi_llsr`, in Thumb-2 assembly (`mem.s`; D-ARCH-7).
 //!
 //! compiler-builtins defines all of them as weak symbols, tuned for speed: about 1.5 KiB of
-//! unrolled loops in each image. These strong definitions replace them for about 150 bytes.
+//! unrolled loops in each image. These strong definitions replace them for about 180 bytes.
 //! A word loop when both pointers are word-aligned (memcpy) or the destination is (memset), a byte
 //! loop otherwise and for the tail; no unrolling. Written in assembly rather than Rust because
 //! LLVM turns a copy loop in Rust back into a call to `memcpy`, which would then call itself.

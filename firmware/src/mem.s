@@ -1,4 +1,5 @@
-@ Memory routines for the Cortex-M3 (ARMv7-M, Thumb-2), small rather than fast (D-ARCH-7).
+@ Memory routines and 64-bit shifts for the Cortex-M3 (ARMv7-M, Thumb-2), small rather than
+@ fast (D-ARCH-7).
 @ Included by firmware/src/mem.rs; tests-host/py/test_mem_asm.py runs them in an emulator.
 @
 @ Every routine is a leaf that touches only r0-r3, r12 and the flags (AAPCS caller-saved), and
@@ -143,4 +144,41 @@
     bx      lr
     .size memcmp, . - memcmp
     .size bcmp, . - bcmp
+    .popsection
+
+@ ---- __aeabi_llsl(value r0:r1, n r2), __aeabi_llsr -------------------------------------------
+@ 64-bit shifts (low word r0, high word r1; 0 <= n < 64), returned in r0:r1. A shift by a
+@ register uses its low byte, so a shift by 32 gives 0 (n = 0 needs no case of its own).
+    .pushsection .text.mem.llsl, "ax", %progbits
+    .p2align 1
+    mem_entry __aeabi_llsl
+    subs    r3, r2, #32
+    bpl     1f
+    rsb     r3, r2, #32         @ 32 - n
+    lsls    r1, r2
+    lsr.w   r3, r0, r3          @ the bits that cross from the low word
+    orrs    r1, r3
+    lsls    r0, r2
+    bx      lr
+1:  lsl.w   r1, r0, r3          @ n >= 32: high = low << (n - 32)
+    movs    r0, #0
+    bx      lr
+    .size __aeabi_llsl, . - __aeabi_llsl
+    .popsection
+
+    .pushsection .text.mem.llsr, "ax", %progbits
+    .p2align 1
+    mem_entry __aeabi_llsr
+    subs    r3, r2, #32
+    bpl     1f
+    rsb     r3, r2, #32         @ 32 - n
+    lsrs    r0, r2
+    lsl.w   r3, r1, r3          @ the bits that cross from the high word
+    orrs    r0, r3
+    lsrs    r1, r2
+    bx      lr
+1:  lsr.w   r0, r1, r3          @ n >= 32: low = high >> (n - 32)
+    movs    r1, #0
+    bx      lr
+    .size __aeabi_llsr, . - __aeabi_llsr
     .popsection

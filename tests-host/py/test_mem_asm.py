@@ -4,7 +4,8 @@ The file is assembled exactly as the firmware includes it (rustc's global_asm!, 
 thumbv7m-none-eabi, into an object file), and each entry point runs in Unicorn's Cortex-M3
 against a Python reference: every length 0..40 and then some long ones, every alignment of both
 pointers, overlaps in both directions for memmove, guard bytes around the destination, the
-callee-saved registers and the stack pointer as the AAPCS requires, and the return values."""
+callee-saved registers and the stack pointer as the AAPCS requires, and the return values; and
+the two 64-bit shifts for every shift count."""
 
 import json
 import pathlib
@@ -54,6 +55,7 @@ AEABI_ENTRIES = [
     "__aeabi_memclr", "__aeabi_memclr4", "__aeabi_memclr8",
 ]
 C_ENTRIES = ["memcpy", "memmove", "memset", "memcmp", "bcmp"]
+SHIFTS = ["__aeabi_llsl", "__aeabi_llsr"]
 
 
 @pytest.fixture(scope="module")
@@ -98,6 +100,12 @@ def mem(tmp_path_factory):
 
 def call(mem, name, *args, ram=None):
     """Runs `name(args)` with `ram` at BUF; returns (r0, the buffer after the call)."""
+    r0, _, after = run(mem, name, args, ram)
+    return r0, after
+
+
+def run(mem, name, args, ram):
+    """Runs `name(args)` with `ram` at BUF; returns (r0, r1, the buffer after the call)."""
     symbols, uc = mem
     uc.mem_write(BUF, bytes(ram))
     for reg, value in zip([UC_ARM_REG_R0, UC_ARM_REG_R1, UC_ARM_REG_R2], args):
@@ -111,7 +119,7 @@ def call(mem, name, *args, ram=None):
     for k, reg in enumerate(CALLEE_SAVED):
         assert uc.reg_read(reg) == 0x5A5A_0000 + k, f"{name} changed a callee-saved register"
     assert uc.reg_read(UC_ARM_REG_SP) == STACK_TOP
-    return uc.reg_read(UC_ARM_REG_R0), bytearray(uc.mem_read(BUF, len(ram)))
+    return uc.reg_read(UC_ARM_REG_R0), uc.reg_read(UC_ARM_REG_R1), bytearray(uc.mem_read(BUF, len(ram)))
 
 
 def pattern(n, seed):
@@ -123,7 +131,7 @@ LENGTHS = list(range(41)) + [63, 64, 65, 255, 1024, 1027]
 
 def test_every_entry_point_is_defined(mem):
     symbols, _ = mem
-    assert sorted(symbols) == sorted(AEABI_ENTRIES + C_ENTRIES)
+    assert sorted(symbols) == sorted(AEABI_ENTRIES + C_ENTRIES + SHIFTS)
 
 
 @pytest.mark.parametrize("name", ["memcpy", "__aeabi_memcpy", "__aeabi_memcpy4", "__aeabi_memcpy8"])
@@ -204,3 +212,13 @@ def test_memcmp(mem, name):
                     assert sign(r0) == want, (n, k, a_byte, b_byte)
                 else:
                     assert (r0 != 0) == (want != 0), (n, k)
+
+
+@pytest.mark.parametrize("name", SHIFTS)
+def test_64_bit_shifts(mem, name):
+    values = [0, 1, 0xFFFF_FFFF_FFFF_FFFF, 0x8000_0000_0000_0001, 0x0123_4567_89AB_CDEF, 0xFEDC_BA98_7654_3210]
+    for value in values:
+        for n in range(64):
+            want = (value << n if name == "__aeabi_llsl" else value >> n) & 0xFFFF_FFFF_FFFF_FFFF
+            lo, hi, _ = run(mem, name, (value & 0xFFFF_FFFF, value >> 32, n), bytes(4))
+            assert lo | hi << 32 == want, (name, hex(value), n)
