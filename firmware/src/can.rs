@@ -14,10 +14,8 @@ use board_plan::timing;
 use board_plan::txq::TxQueue;
 use boards::mcu::TX_DONE;
 use core::future::poll_fn;
-use core::num::{NonZeroU16, NonZeroU8};
 use core::task::Poll;
 use embassy_futures::select::{select, Either};
-use embassy_stm32::can::util::NominalBitTiming;
 use embassy_stm32::can::{BufferedCanRx, Can, Frame as HwFrame, Id, RxBuf as HwRxBuf};
 use embassy_stm32::pac;
 use embassy_time::{with_deadline, Duration, Instant};
@@ -44,15 +42,14 @@ pub struct Bus {
     errors: ErrorTracker,
 }
 
-/// The bxCAN bit timing for a CANopen rate, computed by `board_plan::timing` at compile time.
-fn bit_timing(rate: Bitrate) -> NominalBitTiming {
-    let t = timing::of(rate);
-    NominalBitTiming {
-        prescaler: NonZeroU16::new(t.prescaler).unwrap_or(NonZeroU16::MIN),
-        seg1: NonZeroU8::new(t.seg1).unwrap_or(NonZeroU8::MIN),
-        seg2: NonZeroU8::new(t.seg2).unwrap_or(NonZeroU8::MIN),
-        sync_jump_width: NonZeroU8::new(t.sjw).unwrap_or(NonZeroU8::MIN),
-    }
+/// Sets the bit timing for `rate` (`board_plan::timing`, computed at compile time), in silent
+/// mode or not: CAN_BTR written whole (loop-back off) while the controller is in
+/// initialisation mode, which `modify_config` enters and, when dropped, leaves.
+fn set_timing(can: &mut Can<'static>, rate: Bitrate, silent: bool) {
+    let init = can.modify_config();
+    let silm = if silent { 1 << 31 } else { 0 };
+    pac::CAN.btr().write(|w| w.0 = timing::of(rate).btr() | silm);
+    drop(init);
 }
 
 /// A received frame as the core takes it.
@@ -125,7 +122,7 @@ impl Bus {
     /// receives nothing before the node says what it wants.
     pub async fn start(mut can: Can<'static>, rx: &'static mut RxBuf, rate: Bitrate) -> Bus {
         FilterWriter::begin().end();
-        can.modify_config().set_bit_timing(bit_timing(rate));
+        set_timing(&mut can, rate, false);
         can.enable().await;
         // The transmit half is not kept: the firmware writes the mailboxes itself (`pump`).
         let (_, rx_half) = can.split();
@@ -154,7 +151,7 @@ impl Bus {
             abort(i);
         }
         self.queue.clear();
-        self.can.modify_config().set_bit_timing(bit_timing(rate)).set_silent(silent);
+        set_timing(&mut self.can, rate, silent);
         self.can.enable().await;
     }
 
