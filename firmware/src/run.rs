@@ -45,7 +45,7 @@ pub fn boot<D: CanopenDevice>(device: D, params: &mut Params, uid: &[u8; 12]) ->
         program_serial(&mut core.od, serial_from_uid(uid));
     }
     defmt::info!(
-        "boot: node-ID {=u8}, {=u32} kbit/s, parameters {}",
+        "boot: node-ID {=u8}, {=u32} kbit/s, parameters {=str}",
         node.context().node_id,
         node.context().bitrate.kbit(),
         if loaded.image().is_some() { "stored" } else { "defaults" }
