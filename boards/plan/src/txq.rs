@@ -56,11 +56,23 @@ impl TxQueue {
     }
 
     fn best(&self) -> Option<usize> {
-        (0..self.q.len()).min_by_key(|&i| self.key(i))
+        self.extreme(false)
     }
 
     fn worst(&self) -> Option<usize> {
-        (0..self.q.len()).max_by_key(|&i| self.key(i))
+        self.extreme(true)
+    }
+
+    /// The entry with the smallest key, or the largest if `largest` (one loop for both: the
+    /// keys are distinct, as no two entries have one sequence number).
+    fn extreme(&self, largest: bool) -> Option<usize> {
+        let mut pick: Option<usize> = None;
+        for i in 0..self.q.len() {
+            if pick.is_none_or(|p| (self.key(i) > self.key(p)) == largest) {
+                pick = Some(i);
+            }
+        }
+        pick
     }
 
     /// The frame to send next, without taking it.
@@ -137,6 +149,24 @@ mod tests {
         assert_eq!(q.pop().unwrap().data[0], 2);
         assert_eq!(q.pop().unwrap().id, CanId::Std(0x701));
         assert!(q.pop().is_none());
+    }
+
+    #[test]
+    fn extremes_are_the_smallest_and_largest_keys() {
+        // Against `min_by_key` / `max_by_key` over many fillings, the sequence number wrapping.
+        let mut x = 12345u32;
+        let mut q = TxQueue { seq: u32::MAX - 40, ..TxQueue::default() };
+        for _ in 0..2000 {
+            x = x.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            if x >> 30 == 0 {
+                q.pop();
+            } else {
+                q.push(Frame::std(0x180 + (x >> 20) as u16 % 8, &[]));
+            }
+            let n = q.q.len();
+            assert_eq!(q.best(), (0..n).min_by_key(|&i| q.key(i)));
+            assert_eq!(q.worst(), (0..n).max_by_key(|&i| q.key(i)));
+        }
     }
 
     #[test]
