@@ -12,32 +12,25 @@ use board_plan::filters::{each_bank, mask32, Bank, BANKS};
 use board_plan::mailbox::{self, Slot};
 use board_plan::timing;
 use board_plan::txq::TxQueue;
-use boards::mcu::TX_DONE;
+use boards::mcu::{RX, RX_READY, TX_DONE};
 use core::future::poll_fn;
 use core::task::Poll;
 use embassy_futures::select::{select, Either};
-use embassy_stm32::can::{BufferedCanRx, Can, Frame as HwFrame, Id, RxBuf as HwRxBuf};
+use embassy_stm32::can::Can;
 use embassy_stm32::pac;
 use embassy_time::{with_deadline, Duration, Instant};
 use od_core::node::BusEvent;
-use od_core::{Bitrate, CanId, Frame};
+use od_core::{Bitrate, Frame};
 
 pub use od_core::RxId;
-
-/// Frames the receive queue holds between two turns of the loop (the hardware FIFO has 3).
-pub const RX_DEPTH: usize = 32;
 
 /// How long a bit-rate switch waits for the frames queued at the old rate: a few frames even at
 /// 10 kbit/s (about 13 ms a frame), and well inside the watchdog's 256 ms.
 pub const FLUSH_TIMEOUT: Duration = Duration::from_millis(100);
 
-/// The receive queue's storage.
-pub type RxBuf = HwRxBuf<RX_DEPTH>;
-
 /// The node's CAN bus.
 pub struct Bus {
     can: Can<'static>,
-    rx: BufferedCanRx<'static, RX_DEPTH>,
     queue: TxQueue,
     errors: ErrorTracker,
 }
@@ -50,20 +43,6 @@ fn set_timing(can: &mut Can<'static>, rate: Bitrate, silent: bool) {
     let silm = if silent { 1 << 31 } else { 0 };
     pac::CAN.btr().write(|w| w.0 = timing::of(rate).btr() | silm);
     drop(init);
-}
-
-/// A received frame as the core takes it.
-fn from_hw(frame: &HwFrame) -> Frame {
-    let id = match frame.id() {
-        Id::Standard(id) => CanId::Std(id.as_raw()),
-        Id::Extended(id) => CanId::Ext(id.as_raw()),
-    };
-    let header = frame.header();
-    if header.rtr() {
-        Frame::remote(id, header.len())
-    } else {
-        Frame::new(id, frame.data())
-    }
 }
 
 /// The acceptance filters, written whole rather than through the driver's per-bank calls
@@ -117,16 +96,14 @@ impl FilterWriter {
 }
 
 impl Bus {
-    /// Configures the controller for `rate`, joins the bus (after 11 recessive bits) and starts
-    /// receiving into `rx`. No filter bank is enabled until [`Bus::set_filters`]: the controller
-    /// receives nothing before the node says what it wants.
-    pub async fn start(mut can: Can<'static>, rx: &'static mut RxBuf, rate: Bitrate) -> Bus {
+    /// Configures the controller for `rate` and joins the bus (after 11 recessive bits); the
+    /// board's receive interrupts fill `boards::mcu::RX`. No filter bank is enabled until
+    /// [`Bus::set_filters`]: the controller receives nothing before the node says what it wants.
+    pub async fn start(mut can: Can<'static>, rate: Bitrate) -> Bus {
         FilterWriter::begin().end();
         set_timing(&mut can, rate, false);
         can.enable().await;
-        // The transmit half is not kept: the firmware writes the mailboxes itself (`pump`).
-        let (_, rx_half) = can.split();
-        Bus { can, rx: rx_half.buffered(rx), queue: TxQueue::default(), errors: ErrorTracker::default() }
+        Bus { can, queue: TxQueue::default(), errors: ErrorTracker::default() }
     }
 
     /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset, a candidate of
@@ -213,7 +190,7 @@ impl Bus {
 
     /// The next received frame, if any.
     pub fn receive(&mut self) -> Option<Frame> {
-        self.rx.try_read().ok().map(|envelope| from_hw(&envelope.frame))
+        RX.lock(|rx| rx.borrow_mut().pop())
     }
 
     /// What changed in the controller since the last look, handed to `event` in this order: a
@@ -236,13 +213,26 @@ impl Bus {
     /// Waits until a frame is received or a mailbox can take the next waiting frame.
     pub async fn ready(&mut self) {
         if self.queue.is_empty() {
-            self.rx.wait_not_empty().await;
+            received().await;
             return;
         }
-        match select(self.rx.wait_not_empty(), wait_mailboxes()).await {
+        match select(received(), wait_mailboxes()).await {
             Either::First(()) | Either::Second(()) => {}
         }
     }
+}
+
+/// Waits until a received frame waits in `boards::mcu::RX`.
+async fn received() {
+    poll_fn(|cx| {
+        RX_READY.register(cx.waker());
+        if RX.lock(|rx| rx.borrow().is_empty()) {
+            Poll::Pending
+        } else {
+            Poll::Ready(())
+        }
+    })
+    .await
 }
 
 /// Waits until a mailbox can take the next frame. If one is free already, the frame was refused

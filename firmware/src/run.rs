@@ -23,9 +23,8 @@ use od_core::od::{Entry, Group};
 use od_core::storage::{Loaded, Record};
 use od_core::time::earliest;
 use od_core::{DeviceStation, Instant};
-use static_cell::StaticCell;
 
-use crate::can::{Bus, RxBuf};
+use crate::can::Bus;
 use crate::params::{self, Params};
 use crate::{now, wake_at};
 
@@ -133,7 +132,6 @@ where
     N::Device: Device,
     I: Io<N::Device>,
 {
-    static RX: StaticCell<RxBuf> = StaticCell::new();
     let Mcu { can, mut standby, flash, mut watchdog, reset, uid } = mcu;
     if reset.is_fault() {
         defmt::warn!("reset by the watchdog: the main loop had stopped");
@@ -143,7 +141,7 @@ where
     // The transceiver leaves standby only now; the controller, in sleep until `Bus::start`
     // enables it, keeps its TX pin recessive meanwhile.
     standby.set_low();
-    let mut bus = Bus::start(can, RX.init(RxBuf::new()), node.context().bitrate).await;
+    let mut bus = Bus::start(can, node.context().bitrate).await;
     // Automatic bit-rate detection: silent from the start (D-AP-20).
     if node.listen_only() {
         bus.set_bitrate(node.context().bitrate, true).await;
