@@ -24,6 +24,11 @@ use od_core::{Bitrate, Frame};
 
 pub use od_core::RxId;
 
+/// Frames the receive queue holds between two turns of the loop (the hardware FIFO has 3): the
+/// board's ring, `board_plan::rxq::DEPTH` (checked here at compile time).
+pub const RX_DEPTH: usize = 32;
+const _: () = assert!(RX_DEPTH == board_plan::rxq::DEPTH);
+
 /// How long a bit-rate switch waits for the frames queued at the old rate: a few frames even at
 /// 10 kbit/s (about 13 ms a frame), and well inside the watchdog's 256 ms.
 pub const FLUSH_TIMEOUT: Duration = Duration::from_millis(100);
