@@ -8,124 +8,107 @@
 //! changes so the device raises and clears its EMCYs and LED states.
 
 use board_plan::errors::{ErrorTracker, Esr};
-use board_plan::filters::{banks, Bank, BANKS};
+use board_plan::filters::{each_bank, mask32, Bank, BANKS};
+use board_plan::mailbox::{self, Slot};
 use board_plan::timing;
 use board_plan::txq::TxQueue;
-use core::num::{NonZeroU16, NonZeroU8};
+use boards::mcu::{RX, RX_READY, TX_DONE};
+use core::future::poll_fn;
+use core::task::Poll;
 use embassy_futures::select::{select, Either};
-use embassy_stm32::can::filter::{BankConfig, ListEntry16, ListEntry32, Mask32};
-use embassy_stm32::can::util::NominalBitTiming;
-use embassy_stm32::can::{
-    BufferedCanRx, Can, CanTx, ExtendedId, Fifo, Frame as HwFrame, Id, Mailbox, RxBuf as HwRxBuf, StandardId,
-};
+use embassy_stm32::can::Can;
 use embassy_stm32::pac;
 use embassy_time::{with_deadline, Duration, Instant};
-use heapless::Vec;
 use od_core::node::BusEvent;
-use od_core::{Bitrate, CanId, Frame};
+use od_core::{Bitrate, Frame};
 
 pub use od_core::RxId;
 
-/// Frames the receive queue holds between two turns of the loop (the hardware FIFO has 3).
+/// Frames the receive queue holds between two turns of the loop (the hardware FIFO has 3): the
+/// board's ring, `board_plan::rxq::DEPTH` (checked here at compile time).
 pub const RX_DEPTH: usize = 32;
+const _: () = assert!(RX_DEPTH == board_plan::rxq::DEPTH);
 
 /// How long a bit-rate switch waits for the frames queued at the old rate: a few frames even at
 /// 10 kbit/s (about 13 ms a frame), and well inside the watchdog's 256 ms.
 pub const FLUSH_TIMEOUT: Duration = Duration::from_millis(100);
 
-/// The receive queue's storage.
-pub type RxBuf = HwRxBuf<RX_DEPTH>;
-
-/// The events one look at the controller can produce: the error-state changes and a lost frame.
-pub type Events = Vec<BusEvent, 5>;
-
 /// The node's CAN bus.
 pub struct Bus {
     can: Can<'static>,
-    tx: CanTx<'static>,
-    rx: BufferedCanRx<'static, RX_DEPTH>,
     queue: TxQueue,
     errors: ErrorTracker,
 }
 
-/// The bxCAN bit timing for a CANopen rate, computed by `board_plan::timing` at compile time.
-fn bit_timing(rate: Bitrate) -> NominalBitTiming {
-    let t = timing::of(rate);
-    NominalBitTiming {
-        prescaler: NonZeroU16::new(t.prescaler).unwrap_or(NonZeroU16::MIN),
-        seg1: NonZeroU8::new(t.seg1).unwrap_or(NonZeroU8::MIN),
-        seg2: NonZeroU8::new(t.seg2).unwrap_or(NonZeroU8::MIN),
-        sync_jump_width: NonZeroU8::new(t.sjw).unwrap_or(NonZeroU8::MIN),
-    }
+/// Sets the bit timing for `rate` (`board_plan::timing`, computed at compile time), in silent
+/// mode or not: CAN_BTR written whole (loop-back off) while the controller is in
+/// initialisation mode, which `modify_config` enters and, when dropped, leaves.
+fn set_timing(can: &mut Can<'static>, rate: Bitrate, silent: bool) {
+    let init = can.modify_config();
+    let silm = if silent { 1 << 31 } else { 0 };
+    pac::CAN.btr().write(|w| w.0 = timing::of(rate).btr() | silm);
+    drop(init);
 }
 
-/// The identifier as the driver takes it.
-fn hw_id(id: CanId) -> Option<Id> {
-    match id {
-        CanId::Std(id) => StandardId::new(id).map(Id::Standard),
-        CanId::Ext(id) => ExtendedId::new(id).map(Id::Extended),
-    }
+/// The acceptance filters, written whole rather than through the driver's per-bank calls
+/// (RM0008 24.7.4, 24.9.5): the filters in initialisation mode and every bank off, then bank by
+/// bank from 0 its two registers, mode and scale, then all of them on FIFO 0 (frames keep their
+/// order) and the banks used on.
+struct FilterWriter {
+    /// Banks written so far.
+    n: usize,
+    /// Identifier-list mode (else mask mode), a bit per bank (CAN_FM1R).
+    list: u32,
+    /// One 32-bit filter (else two 16-bit ones), a bit per bank (CAN_FS1R).
+    scale32: u32,
 }
 
-/// A core frame as the driver takes it (`None` for an identifier out of range, which the core
-/// never makes).
-fn to_hw(frame: &Frame) -> Option<HwFrame> {
-    let id = hw_id(frame.id)?;
-    if frame.rtr {
-        HwFrame::new_remote(id, frame.len as usize).ok()
-    } else {
-        HwFrame::new_data(id, frame.payload()).ok()
+impl FilterWriter {
+    fn begin() -> FilterWriter {
+        let can = pac::CAN;
+        can.fmr().modify(|w| w.set_finit(true));
+        can.fa1r().write(|w| w.0 = 0);
+        FilterWriter { n: 0, list: 0, scale32: 0 }
     }
-}
 
-/// A received frame as the core takes it.
-fn from_hw(frame: &HwFrame) -> Frame {
-    let id = match frame.id() {
-        Id::Standard(id) => CanId::Std(id.as_raw()),
-        Id::Extended(id) => CanId::Ext(id.as_raw()),
-    };
-    let header = frame.header();
-    if header.rtr() {
-        Frame::remote(id, header.len())
-    } else {
-        Frame::new(id, frame.data())
+    /// The next bank; nothing once all [`BANKS`] are used.
+    fn bank(&mut self, list: bool, scale32: bool, (fr1, fr2): (u32, u32)) {
+        if self.n >= BANKS {
+            return;
+        }
+        let bank = pac::CAN.fb(self.n);
+        bank.fr1().write(|w| w.0 = fr1);
+        bank.fr2().write(|w| w.0 = fr2);
+        self.list |= (list as u32) << self.n;
+        self.scale32 |= (scale32 as u32) << self.n;
+        self.n += 1;
     }
-}
 
-/// One filter bank as the driver programs it.
-fn bank_config(bank: &Bank) -> BankConfig {
-    let entry32 = |r: &RxId| match hw_id(r.id) {
-        Some(id) if r.rtr => ListEntry32::remote_frames_with_id(id),
-        Some(id) => ListEntry32::data_frames_with_id(id),
-        None => ListEntry32::data_frames_with_id(StandardId::ZERO),
-    };
-    match bank {
-        Bank::List16(entries) => BankConfig::List16(entries.map(|r| {
-            let id = match r.id {
-                CanId::Std(id) => StandardId::new(id).unwrap_or(StandardId::ZERO),
-                CanId::Ext(_) => StandardId::ZERO,
-            };
-            if r.rtr {
-                ListEntry16::remote_frames_with_id(id)
-            } else {
-                ListEntry16::data_frames_with_id(id)
-            }
-        })),
-        Bank::List32(entries) => BankConfig::List32([entry32(&entries[0]), entry32(&entries[1])]),
-        Bank::AcceptAll => BankConfig::Mask32(Mask32::accept_all()),
+    /// The next bank as `board_plan::filters` packed it.
+    fn put(&mut self, bank: Bank) {
+        let (list, scale32) = bank.mode();
+        self.bank(list, scale32, bank.registers());
+    }
+
+    fn end(self) {
+        let can = pac::CAN;
+        can.fm1r().write(|w| w.0 = self.list);
+        can.fs1r().write(|w| w.0 = self.scale32);
+        can.ffa1r().write(|w| w.0 = 0);
+        can.fa1r().write(|w| w.0 = (1 << self.n) - 1);
+        can.fmr().modify(|w| w.set_finit(false));
     }
 }
 
 impl Bus {
-    /// Configures the controller for `rate`, joins the bus (after 11 recessive bits) and starts
-    /// receiving into `rx`. No filter bank is enabled until [`Bus::set_filters`]: the controller
-    /// receives nothing before the node says what it wants.
-    pub async fn start(mut can: Can<'static>, rx: &'static mut RxBuf, rate: Bitrate) -> Bus {
-        can.modify_filters().clear();
-        can.modify_config().set_bit_timing(bit_timing(rate));
+    /// Configures the controller for `rate` and joins the bus (after 11 recessive bits); the
+    /// board's receive interrupts fill `boards::mcu::RX`. No filter bank is enabled until
+    /// [`Bus::set_filters`]: the controller receives nothing before the node says what it wants.
+    pub async fn start(mut can: Can<'static>, rate: Bitrate) -> Bus {
+        FilterWriter::begin().end();
+        set_timing(&mut can, rate, false);
         can.enable().await;
-        let (tx, rx_half) = can.split();
-        Bus { can, tx, rx: rx_half.buffered(rx), queue: TxQueue::default(), errors: ErrorTracker::default() }
+        Bus { can, queue: TxQueue::default(), errors: ErrorTracker::default() }
     }
 
     /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset, a candidate of
@@ -139,47 +122,39 @@ impl Bus {
             loop {
                 self.pump();
                 let empty = self.queue.is_empty();
-                wait_mailboxes(&self.tx).await;
-                if empty && self.tx.is_idle() {
+                wait_mailboxes().await;
+                if empty && empty_mailboxes() == 3 {
                     break;
                 }
             }
         })
         .await;
-        for mb in [Mailbox::Mailbox0, Mailbox::Mailbox1, Mailbox::Mailbox2] {
-            self.tx.abort(mb);
+        for i in 0..3 {
+            abort(i);
         }
         self.queue.clear();
-        self.can.modify_config().set_bit_timing(bit_timing(rate)).set_silent(silent);
+        set_timing(&mut self.can, rate, silent);
         self.can.enable().await;
     }
 
     /// Opens the acceptance filters to every frame (while the node detects the rate: any frame
     /// received without error proves it).
     pub fn accept_all(&mut self) {
-        let mut filters = self.can.modify_filters();
-        filters.clear();
-        filters.enable_bank(0, Fifo::Fifo0, BankConfig::Mask32(Mask32::accept_all()));
+        let mut filters = FilterWriter::begin();
+        filters.put(Bank::AcceptAll);
+        filters.end();
     }
 
     /// Programs the acceptance filters to pass exactly `ids`, and the 29-bit data frames each
     /// (identifier, mask) of `masks` passes (a J1939 node's), one bank each after the lists (all
     /// banks on FIFO 0, so frames keep their order).
     pub fn set_filters(&mut self, ids: &[RxId], masks: &[(u32, u32)]) {
-        let banks = banks(ids, BANKS.saturating_sub(masks.len()));
-        let mut filters = self.can.modify_filters();
-        filters.clear();
-        for (i, bank) in banks.iter().enumerate() {
-            filters.enable_bank(i as u8, Fifo::Fifo0, bank_config(bank));
+        let mut filters = FilterWriter::begin();
+        each_bank(ids, BANKS.saturating_sub(masks.len()), |bank| filters.put(bank));
+        for &(id, mask) in masks {
+            filters.bank(false, true, mask32(id, mask));
         }
-        for (k, &(id, mask)) in masks.iter().enumerate().take(BANKS - banks.len()) {
-            let (Some(id), Some(mask)) = (ExtendedId::new(id & 0x1FFF_FFFF), ExtendedId::new(mask & 0x1FFF_FFFF))
-            else {
-                continue;
-            };
-            let bank = BankConfig::Mask32(Mask32::frames_with_ext_id(id, mask));
-            filters.enable_bank((banks.len() + k) as u8, Fifo::Fifo0, bank);
-        }
+        filters.end();
     }
 
     /// Queues a frame for transmission.
@@ -192,76 +167,120 @@ impl Bus {
         self.queue.dropped()
     }
 
-    /// Hands the mailboxes the most urgent waiting frames. A frame a mailbox gave up for a more
+    /// Hands the mailboxes the most urgent waiting frames, through their registers
+    /// (`board_plan::mailbox` decides where each goes). A frame a mailbox gives up for a more
     /// urgent one goes back into the queue.
     pub fn pump(&mut self) {
+        let can = pac::CAN;
         while let Some(frame) = self.queue.peek() {
-            let Some(hw) = to_hw(frame) else {
-                self.queue.pop();
-                continue;
+            let tsr = can.tsr().read();
+            let pending = [0, 1, 2].map(|i| (!tsr.tme(i)).then(|| can.tx(i).tir().read().0));
+            let (i, back) = match mailbox::choose(frame, pending) {
+                Slot::Free(i) => (i, None),
+                Slot::Replace(i) => (i, abort(i)),
+                Slot::Wait => break,
             };
-            match self.tx.try_write(&hw) {
-                Ok(status) => {
-                    self.queue.pop();
-                    if let Some(back) = status.dequeued_frame() {
-                        self.queue.push(from_hw(back));
-                    }
-                }
-                Err(_) => break,
+            let Some(frame) = self.queue.pop() else { break };
+            let [tir, tdtr, tdlr, tdhr] = mailbox::registers(&frame);
+            let mb = can.tx(i);
+            mb.tdtr().write(|w| w.0 = tdtr);
+            mb.tdlr().write(|w| w.0 = tdlr);
+            mb.tdhr().write(|w| w.0 = tdhr);
+            mb.tir().write(|w| w.0 = tir | mailbox::TXRQ);
+            if let Some(back) = back {
+                self.queue.push(back);
             }
         }
     }
 
     /// The next received frame, if any.
     pub fn receive(&mut self) -> Option<Frame> {
-        self.rx.try_read().ok().map(|envelope| from_hw(&envelope.frame))
+        RX.lock(|rx| rx.borrow_mut().pop())
     }
 
-    /// What changed in the controller since the last look: a frame lost to a full receive FIFO,
-    /// the last protocol error, the error counters and the fault confinement state.
-    pub fn events(&mut self) -> Events {
+    /// What changed in the controller since the last look, handed to `event` in this order: a
+    /// frame lost to a full receive FIFO, the last protocol error, the error counters and the
+    /// fault confinement state.
+    pub fn events(&mut self, mut event: impl FnMut(BusEvent)) {
         let can = pac::CAN;
-        let mut events = Events::new();
         if can.rfr(0).read().fovr() {
             can.rfr(0).write(|w| w.set_fovr(true));
-            let _ = events.push(BusEvent::RxOverrun);
+            event(BusEvent::RxOverrun);
         }
         let esr = Esr::from_bits(can.esr().read().0);
         if (1..=6).contains(&esr.lec) {
             // "Set by software": a new error shows up as a code 1..6 again.
             can.esr().write_value(pac::can::regs::Esr(7 << 4));
         }
-        for event in self.errors.update(esr) {
-            let _ = events.push(event);
-        }
-        events
+        self.errors.each(esr, event);
     }
 
     /// Waits until a frame is received or a mailbox can take the next waiting frame.
     pub async fn ready(&mut self) {
         if self.queue.is_empty() {
-            self.rx.wait_not_empty().await;
+            received().await;
             return;
         }
-        match select(self.rx.wait_not_empty(), wait_mailboxes(&self.tx)).await {
+        match select(received(), wait_mailboxes()).await {
             Either::First(()) | Either::Second(()) => {}
         }
     }
 }
 
+/// Waits until a received frame waits in `boards::mcu::RX`.
+async fn received() {
+    poll_fn(|cx| {
+        RX_READY.register(cx.waker());
+        if RX.lock(|rx| rx.borrow().is_empty()) {
+            Poll::Pending
+        } else {
+            Poll::Ready(())
+        }
+    })
+    .await
+}
+
 /// Waits until a mailbox can take the next frame. If one is free already, the frame was refused
 /// because one with the same identifier is still pending (the bxCAN would not keep their
 /// order): then wait for every mailbox to empty, rather than return at once and spin.
-async fn wait_mailboxes(tx: &CanTx<'static>) {
-    if can_take_more() {
-        tx.flush_all().await
-    } else {
-        tx.flush_any().await
-    }
+async fn wait_mailboxes() {
+    let all = empty_mailboxes() > 0;
+    poll_fn(|cx| {
+        TX_DONE.register(cx.waker());
+        let empty = empty_mailboxes();
+        if empty == 3 || (!all && empty > 0) {
+            Poll::Ready(())
+        } else {
+            Poll::Pending
+        }
+    })
+    .await
 }
 
-/// Is any transmit mailbox empty?
-fn can_take_more() -> bool {
+/// Aborts the frame in mailbox `i` and returns it; `None` if the mailbox was empty or its frame
+/// went out before the abort took effect.
+fn abort(i: usize) -> Option<Frame> {
+    let can = pac::CAN;
+    if can.tsr().read().tme(i) {
+        return None;
+    }
+    can.tsr().write(|w| w.set_abrq(i, true));
+    // The abort completes once the frame is out of the mailbox: sent (TXOK) or not.
+    let tsr = loop {
+        let tsr = can.tsr().read();
+        if !tsr.abrq(i) {
+            break tsr;
+        }
+    };
+    if tsr.txok(i) {
+        return None;
+    }
+    let mb = can.tx(i);
+    Some(mailbox::frame_of([mb.tir().read().0, mb.tdtr().read().0, mb.tdlr().read().0, mb.tdhr().read().0]))
+}
+
+/// How many of the three transmit mailboxes are empty.
+fn empty_mailboxes() -> usize {
     let tsr = pac::CAN.tsr().read();
-    (0..3).any(|i| tsr.tme(i))
+    (0..3).filter(|&i| tsr.tme(i)).count()
 }

@@ -6,6 +6,7 @@
 //!   the priority-ordered transmit queue, the controller's error state;
 //! - [`params`]: the parameter pages `memory.x` reserves, through the blocking flash driver;
 //! - [`boot_time`]: the cycle count from reset to the first frame, logged once;
+//! - `mem`: the image's `memcpy`, `memset` and friends, small Thumb-2 loops (D-ARCH-7);
 //! - [`run`]: boot and the one loop that waits for the next frame, the core's next deadline or
 //!   the next sample, whichever comes first.
 //!
@@ -16,6 +17,7 @@
 
 pub mod boot_time;
 pub mod can;
+mod mem;
 pub mod params;
 pub mod run;
 

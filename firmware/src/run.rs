@@ -23,9 +23,8 @@ use od_core::od::{Entry, Group};
 use od_core::storage::{Loaded, Record};
 use od_core::time::earliest;
 use od_core::{DeviceStation, Instant};
-use static_cell::StaticCell;
 
-use crate::can::{Bus, RxBuf};
+use crate::can::Bus;
 use crate::params::{self, Params};
 use crate::{now, wake_at};
 
@@ -45,7 +44,7 @@ pub fn boot<D: CanopenDevice>(device: D, params: &mut Params, uid: &[u8; 12]) ->
         program_serial(&mut core.od, serial_from_uid(uid));
     }
     defmt::info!(
-        "boot: node-ID {=u8}, {=u32} kbit/s, parameters {}",
+        "boot: node-ID {=u8}, {=u32} kbit/s, parameters {=str}",
         node.context().node_id,
         node.context().bitrate.kbit(),
         if loaded.image().is_some() { "stored" } else { "defaults" }
@@ -133,7 +132,6 @@ where
     N::Device: Device,
     I: Io<N::Device>,
 {
-    static RX: StaticCell<RxBuf> = StaticCell::new();
     let Mcu { can, mut standby, flash, mut watchdog, reset, uid } = mcu;
     if reset.is_fault() {
         defmt::warn!("reset by the watchdog: the main loop had stopped");
@@ -143,7 +141,7 @@ where
     // The transceiver leaves standby only now; the controller, in sleep until `Bus::start`
     // enables it, keeps its TX pin recessive meanwhile.
     standby.set_low();
-    let mut bus = Bus::start(can, RX.init(RxBuf::new()), node.context().bitrate).await;
+    let mut bus = Bus::start(can, node.context().bitrate).await;
     // Automatic bit-rate detection: silent from the start (D-AP-20).
     if node.listen_only() {
         bus.set_bitrate(node.context().bitrate, true).await;
@@ -164,9 +162,7 @@ where
             node.on_frame(&frame, t);
             serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
         }
-        for event in bus.events() {
-            node.on_bus_event(event, t);
-        }
+        bus.events(|event| node.on_bus_event(event, t));
         serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
         if node.next_deadline().is_some_and(|d| d <= t) {
             node.poll(t);

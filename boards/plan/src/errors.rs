@@ -80,15 +80,25 @@ impl ErrorTracker {
     }
 
     /// Takes a snapshot; returns what changed since the previous one, in the order the core
-    /// should see it: the protocol error, the counters, then the state change.
+    /// should see it: the protocol error, the counters, then the state change ([`Self::each`],
+    /// collected).
     pub fn update(&mut self, esr: Esr) -> Events {
         let mut ev = Events::new();
+        self.each(esr, |e| {
+            let _ = ev.push(e);
+        });
+        ev
+    }
+
+    /// Takes a snapshot and hands `event` what changed since the previous one, in the order of
+    /// [`Self::update`] (the firmware passes each straight to the node).
+    pub fn each(&mut self, esr: Esr, mut event: impl FnMut(BusEvent)) {
         if let Some(e) = protocol_error(esr.lec) {
-            let _ = ev.push(BusEvent::ProtocolError(e));
+            event(BusEvent::ProtocolError(e));
         }
         if (esr.rec, esr.tec) != self.counters {
             self.counters = (esr.rec, esr.tec);
-            let _ = ev.push(BusEvent::ErrorCounters { rx: esr.rec, tx: esr.tec });
+            event(BusEvent::ErrorCounters { rx: esr.rec, tx: esr.tec });
         }
         let state = if esr.boff {
             ErrorState::BusOff
@@ -105,14 +115,13 @@ impl ErrorTracker {
             (_, ErrorState::Active) => Some(BusEvent::ErrorActive),
         };
         if let Some(c) = change {
-            let _ = ev.push(c);
+            event(c);
             // Recovered straight into error passive (REC still high): say so too.
             if c == BusEvent::BusOffRecovered && state == ErrorState::Passive {
-                let _ = ev.push(BusEvent::ErrorPassive);
+                event(BusEvent::ErrorPassive);
             }
         }
         self.state = state;
-        ev
     }
 }
 

@@ -4,7 +4,7 @@
 //! data or remote frame each) are packed into filter banks in identifier-list mode ([`banks`]):
 //! four 11-bit identifiers per bank in 16-bit list mode, two 29-bit ones per bank in 32-bit
 //! list mode. The STM32F103 has 14 banks (56 standard identifiers), far more than a node
-//! needs; should a list not fit, the last bank accepts everything and the core sorts the
+//! needs; should a list not fit, a single bank accepts everything and the core sorts the
 //! frames out, as it does on the host. The firmware re-programs the banks whenever the list
 //! changes (node-ID, SYNC or RPDO COB-ID written, LSS activation).
 
@@ -36,6 +36,14 @@ pub const fn entry32(r: RxId) -> u32 {
     }
 }
 
+/// The registers of a 32-bit mask-mode bank that passes the 29-bit frames whose identifier
+/// matches `id` where `mask` has a one (a J1939 node's masks): both with IDE set, so only
+/// 29-bit frames pass; RTR left free.
+pub const fn mask32(id: u32, mask: u32) -> (u32, u32) {
+    const IDE: u32 = 1 << 2;
+    (((id & 0x1FFF_FFFF) << 3) | IDE, ((mask & 0x1FFF_FFFF) << 3) | IDE)
+}
+
 /// How one filter bank is programmed.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub enum Bank {
@@ -56,6 +64,12 @@ impl Bank {
             Bank::List32(e) => (entry32(e[0]), entry32(e[1])),
             Bank::AcceptAll => (0, 0),
         }
+    }
+
+    /// The bank's mode bits: (identifier-list mode rather than mask mode: CAN_FM1R,
+    /// one 32-bit filter rather than two 16-bit ones: CAN_FS1R).
+    pub const fn mode(&self) -> (bool, bool) {
+        (!matches!(self, Bank::AcceptAll), !matches!(self, Bank::List16(_)))
     }
 
     /// Does this bank accept the frame (`id`, remote or not)?
@@ -82,13 +96,22 @@ const fn pack16(lo: RxId, hi: RxId) -> u32 {
 }
 
 /// Packs `ids` into at most `max_banks` banks: the 11-bit identifiers four to a bank, then
-/// the 29-bit ones two to a bank. When they need more than `max_banks`, the banks that fit
-/// are kept and the last one accepts every frame.
+/// the 29-bit ones two to a bank. When they need more than `max_banks`, one bank that accepts
+/// every frame instead. ([`each_bank`], collected.)
 pub fn banks(ids: &[RxId], max_banks: usize) -> Vec<Bank, BANKS> {
-    let max = max_banks.min(BANKS);
     let mut out: Vec<Bank, BANKS> = Vec::new();
+    each_bank(ids, max_banks, |bank| {
+        let _ = out.push(bank);
+    });
+    out
+}
+
+/// The banks [`banks`] packs `ids` into, handed to `bank` one by one in bank order (the
+/// firmware programs each as it comes, without a list of them on its stack).
+pub fn each_bank(ids: &[RxId], max_banks: usize, mut bank: impl FnMut(Bank)) {
+    let max = max_banks.min(BANKS);
     if max == 0 {
-        return out;
+        return;
     }
     let is_std = |r: &&RxId| matches!(r.id, CanId::Std(_));
     let std = ids.iter().filter(is_std).count();
@@ -96,8 +119,8 @@ pub fn banks(ids: &[RxId], max_banks: usize) -> Vec<Bank, BANKS> {
     if needed > max {
         // Overflow: fall back to software filtering for everything. (Partial hardware
         // filtering beside an accept-all bank would filter nothing.)
-        let _ = out.push(Bank::AcceptAll);
-        return out;
+        bank(Bank::AcceptAll);
+        return;
     }
     // Four 11-bit identifiers to a bank, then two 29-bit ones; a bank's unused places repeat
     // its first identifier. (Built in place rather than through collected lists, whose moves
@@ -111,12 +134,12 @@ pub fn banks(ids: &[RxId], max_banks: usize) -> Vec<Bank, BANKS> {
         list16[n] = *r;
         n += 1;
         if n == 4 {
-            let _ = out.push(Bank::List16(list16));
+            bank(Bank::List16(list16));
             n = 0;
         }
     }
     if n > 0 {
-        let _ = out.push(Bank::List16(list16));
+        bank(Bank::List16(list16));
     }
     let mut list32 = [RxId::data(CanId::Ext(0)); 2];
     let mut n = 0;
@@ -127,14 +150,13 @@ pub fn banks(ids: &[RxId], max_banks: usize) -> Vec<Bank, BANKS> {
         list32[n] = *r;
         n += 1;
         if n == 2 {
-            let _ = out.push(Bank::List32(list32));
+            bank(Bank::List32(list32));
             n = 0;
         }
     }
     if n > 0 {
-        let _ = out.push(Bank::List32(list32));
+        bank(Bank::List32(list32));
     }
-    out
 }
 
 /// Does a filter set accept the frame?
@@ -158,6 +180,17 @@ mod tests {
         assert_eq!(entry32(RxId::remote(CanId::Std(0x7E5))), (0x7E5 << 21) | 2);
         assert_eq!(entry32(RxId::data(CanId::Ext(0x18FF_0012))), (0x18FF_0012 << 3) | 4);
         assert_eq!(entry16(RxId::data(CanId::Ext(1))), None);
+    }
+
+    #[test]
+    fn modes_and_masks_follow_rm0008() {
+        assert_eq!(Bank::List16([data(1); 4]).mode(), (true, false));
+        assert_eq!(Bank::List32([data(1); 2]).mode(), (true, true));
+        assert_eq!(Bank::AcceptAll.mode(), (false, true));
+        assert_eq!(Bank::AcceptAll.registers(), (0, 0), "mask 0: every frame");
+        // PGN FECAh to anyone from any source: identifier bits 8..25, IDE bit 2 in both.
+        assert_eq!(mask32(0x00FE_CA00, 0x03FF_FF00), ((0x00FE_CA00 << 3) | 4, (0x03FF_FF00 << 3) | 4));
+        assert_eq!(mask32(0xFFFF_FFFF, 0), ((0x1FFF_FFFF << 3) | 4, 4), "29 bits only");
     }
 
     #[test]

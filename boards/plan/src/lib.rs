@@ -10,7 +10,9 @@
 //! - [`lcd`] and [`keys`]: the AP10T's display (7-segment font, HT1621 transfers) and key
 //!   debouncing;
 //! - [`reset`]: why the MCU reset, from the RCC's reset flags;
-//! - [`txq`]: the transmit queue that hands frames to the mailboxes in priority order.
+//! - [`txq`]: the transmit queue that hands frames to the mailboxes in priority order;
+//! - [`mailbox`]: a frame in the transmit mailboxes' registers, and which mailbox takes it;
+//! - [`rxq`]: the ring the receive interrupt fills and the main loop empties.
 //!
 //! The hardware side (Embassy, registers, pins) is in the `boards` crate and in `firmware/`,
 //! which are built for `thumbv7m-none-eabi` only.
@@ -22,7 +24,9 @@ pub mod errors;
 pub mod filters;
 pub mod keys;
 pub mod lcd;
+pub mod mailbox;
 pub mod reset;
+pub mod rxq;
 pub mod sensor;
 pub mod straps;
 pub mod timing;

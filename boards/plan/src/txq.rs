@@ -13,19 +13,20 @@ use od_core::frame::{CanId, Frame};
 pub const DEPTH: usize = 16;
 
 /// The arbitration priority of a frame: lower wins (base identifier, then 11-bit before
-/// 29-bit, then the extension bits, then data before remote).
-pub const fn priority(id: CanId, rtr: bool) -> u64 {
+/// 29-bit, then the extension bits, then data before remote). 31 bits: a 32-bit key, so that
+/// the queue's comparisons need no 64-bit arithmetic on the Cortex-M3.
+pub const fn priority(id: CanId, rtr: bool) -> u32 {
     let (base, ide, ext) = match id {
-        CanId::Std(id) => (id as u64 & 0x7FF, 0, 0),
-        CanId::Ext(id) => ((id as u64 >> 18) & 0x7FF, 1, id as u64 & 0x3_FFFF),
+        CanId::Std(id) => (id as u32 & 0x7FF, 0, 0),
+        CanId::Ext(id) => ((id >> 18) & 0x7FF, 1, id & 0x3_FFFF),
     };
-    (base << 20) | (ide << 19) | (ext << 1) | rtr as u64
+    (base << 20) | (ide << 19) | (ext << 1) | rtr as u32
 }
 
 /// Frames waiting for a mailbox.
 #[derive(Clone, Debug, Default)]
 pub struct TxQueue {
-    q: Vec<(u64, u32, Frame), DEPTH>,
+    q: Vec<(u32, u32, Frame), DEPTH>,
     seq: u32,
     dropped: u32,
 }
@@ -50,16 +51,28 @@ impl TxQueue {
     }
 
     /// Sort key: priority, then the older frame first (larger age).
-    fn key(&self, i: usize) -> (u64, core::cmp::Reverse<u32>) {
+    fn key(&self, i: usize) -> (u32, core::cmp::Reverse<u32>) {
         (self.q[i].0, core::cmp::Reverse(self.seq.wrapping_sub(self.q[i].1)))
     }
 
     fn best(&self) -> Option<usize> {
-        (0..self.q.len()).min_by_key(|&i| self.key(i))
+        self.extreme(false)
     }
 
     fn worst(&self) -> Option<usize> {
-        (0..self.q.len()).max_by_key(|&i| self.key(i))
+        self.extreme(true)
+    }
+
+    /// The entry with the smallest key, or the largest if `largest` (one loop for both: the
+    /// keys are distinct, as no two entries have one sequence number).
+    fn extreme(&self, largest: bool) -> Option<usize> {
+        let mut pick: Option<usize> = None;
+        for i in 0..self.q.len() {
+            if pick.is_none_or(|p| (self.key(i) > self.key(p)) == largest) {
+                pick = Some(i);
+            }
+        }
+        pick
     }
 
     /// The frame to send next, without taking it.
@@ -75,7 +88,7 @@ impl TxQueue {
 
     /// Takes entry `i`, the last one moving into its place (`Vec::swap_remove` without the
     /// overlapping copy that links a 1.6 KiB `memmove` into the image).
-    fn take(&mut self, i: usize) -> (u64, u32, Frame) {
+    fn take(&mut self, i: usize) -> (u32, u32, Frame) {
         let last = self.q.len() - 1;
         if i < last {
             let (low, high) = self.q.split_at_mut(last);
@@ -116,6 +129,12 @@ mod tests {
         // 11-bit beats a 29-bit identifier with the same base.
         assert!(priority(CanId::Std(0x100), false) < priority(CanId::Ext(0x100 << 18), false));
         assert!(priority(CanId::Ext(0x0FF << 18 | 0x3FFFF), false) < priority(CanId::Std(0x100), false));
+        // A remote 11-bit frame still beats the 29-bit ones with its base (IDE after SRR).
+        assert!(priority(CanId::Std(0x100), true) < priority(CanId::Ext(0x100 << 18), false));
+        // Extension bits in order, remote last, the widest key below 2^31.
+        assert!(priority(CanId::Ext(0x1FFF_FFFE), true) < priority(CanId::Ext(0x1FFF_FFFF), false));
+        assert!(priority(CanId::Std(0x7FF), true) < priority(CanId::Ext(0x1FFF_FFFF), true));
+        assert_eq!(priority(CanId::Ext(0x1FFF_FFFF), true), 0x7FFF_FFFF);
     }
 
     #[test]
@@ -130,6 +149,24 @@ mod tests {
         assert_eq!(q.pop().unwrap().data[0], 2);
         assert_eq!(q.pop().unwrap().id, CanId::Std(0x701));
         assert!(q.pop().is_none());
+    }
+
+    #[test]
+    fn extremes_are_the_smallest_and_largest_keys() {
+        // Against `min_by_key` / `max_by_key` over many fillings, the sequence number wrapping.
+        let mut x = 12345u32;
+        let mut q = TxQueue { seq: u32::MAX - 40, ..TxQueue::default() };
+        for _ in 0..2000 {
+            x = x.wrapping_mul(1_103_515_245).wrapping_add(12345);
+            if x >> 30 == 0 {
+                q.pop();
+            } else {
+                q.push(Frame::std(0x180 + (x >> 20) as u16 % 8, &[]));
+            }
+            let n = q.q.len();
+            assert_eq!(q.best(), (0..n).min_by_key(|&i| q.key(i)));
+            assert_eq!(q.worst(), (0..n).max_by_key(|&i| q.key(i)));
+        }
     }
 
     #[test]

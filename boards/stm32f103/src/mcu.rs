@@ -1,26 +1,90 @@
 //! What every board shares: the clocks, the bxCAN with its transceiver, the parameter flash, the
 //! independent watchdog, the reset cause, the unique ID and the variant straps.
 
+use board_plan::mailbox;
 use board_plan::reset::ResetCause;
+use board_plan::rxq::RxRing;
 use board_plan::straps::Straps;
+use core::cell::RefCell;
 use embassy_stm32::can::{self, Can};
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
+use embassy_stm32::interrupt::typelevel::{self, Binding};
 use embassy_stm32::peripherals::{CAN, FLASH, IWDG, PA11, PA12, PB5};
 use embassy_stm32::rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPreDiv, PllSource, Sysclk};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{bind_interrupts, pac, Config, Peri};
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::blocking_mutex::Mutex;
+use embassy_sync::waitqueue::AtomicWaker;
 
 bind_interrupts!(
-    /// The bxCAN's four interrupts, bound to Embassy's handlers.
+    /// The bxCAN's error interrupt, bound to Embassy's handler; the transmit and receive
+    /// interrupts are the board's own (`USB_HP_CAN1_TX`, `USB_LP_CAN1_RX0`, `CAN1_RX1`).
     pub struct CanIrqs {
-        USB_HP_CAN1_TX => can::TxInterruptHandler<CAN>;
-        USB_LP_CAN1_RX0 => can::Rx0InterruptHandler<CAN>;
-        CAN1_RX1 => can::Rx1InterruptHandler<CAN>;
         CAN1_SCE => can::SceInterruptHandler<CAN>;
     }
 );
+
+// SAFETY: `Can::new` asks for handlers that serve the transmit and receive interrupts: the
+// transmit one acknowledges the completed requests (RQCPx, or the interrupt fires again at once)
+// and wakes whoever waits for a mailbox, the receive ones empty their FIFO (FMPx, likewise) and
+// wake whoever waits for a frame. The handlers below do all of it for the firmware, which writes
+// the mailboxes itself and waits on `TX_DONE`, and takes received frames from `RX` and waits on
+// `RX_READY`; it uses none of Embassy's transmit or receive halves, whose wakers and buffers
+// Embassy's handlers would serve (and so link).
+unsafe impl Binding<typelevel::USB_HP_CAN1_TX, can::TxInterruptHandler<CAN>> for CanIrqs {}
+// SAFETY: as above.
+unsafe impl Binding<typelevel::USB_LP_CAN1_RX0, can::Rx0InterruptHandler<CAN>> for CanIrqs {}
+// SAFETY: as above.
+unsafe impl Binding<typelevel::CAN1_RX1, can::Rx1InterruptHandler<CAN>> for CanIrqs {}
+
+/// Woken by the transmit interrupt: a mailbox's request completed (sent or aborted).
+pub static TX_DONE: AtomicWaker = AtomicWaker::new();
+
+/// The frames received and not yet taken, filled by the receive interrupts.
+pub static RX: Mutex<CriticalSectionRawMutex, RefCell<RxRing>> = Mutex::new(RefCell::new(RxRing::new()));
+
+/// Woken by the receive interrupts: frames arrived in [`RX`].
+pub static RX_READY: AtomicWaker = AtomicWaker::new();
+
+/// The bxCAN transmit interrupt (the vector table names it): acknowledges every completed
+/// request and wakes [`TX_DONE`].
+#[no_mangle]
+unsafe extern "C" fn USB_HP_CAN1_TX() {
+    pac::CAN.tsr().write(|w| {
+        for i in 0..3 {
+            w.set_rqcp(i, true);
+        }
+    });
+    TX_DONE.wake();
+}
+
+/// The bxCAN FIFO 0 interrupt: moves the FIFO's frames into [`RX`].
+#[no_mangle]
+unsafe extern "C" fn USB_LP_CAN1_RX0() {
+    receive(0);
+}
+
+/// The bxCAN FIFO 1 interrupt (every filter bank feeds FIFO 0; served all the same).
+#[no_mangle]
+unsafe extern "C" fn CAN1_RX1() {
+    receive(1);
+}
+
+/// Moves every frame of receive FIFO `fifo` into [`RX`], releasing each from the FIFO (only
+/// RFOM written: the overrun flag stays for the main loop to report), and wakes [`RX_READY`].
+fn receive(fifo: usize) {
+    let can = pac::CAN;
+    while can.rfr(fifo).read().fmp() != 0 {
+        let mb = can.rx(fifo);
+        let frame = mailbox::frame_of([mb.rir().read().0, mb.rdtr().read().0, mb.rdlr().read().0, mb.rdhr().read().0]);
+        can.rfr(fifo).write(|w| w.set_rfom(true));
+        RX.lock(|rx| rx.borrow_mut().push(frame));
+    }
+    RX_READY.wake();
+}
 
 /// The watchdog's timeout: the main loop turns at least once per sample period (1 ms) and a
 /// parameter save (one 1 KiB page erased, at most 40 ms on the F103, plus the writes) is the
