@@ -9,7 +9,7 @@ use crate::abort::Abort;
 use crate::context::{Context, Written};
 use crate::device::Device;
 use crate::errors;
-use crate::od::{CoreHook, Hook};
+use crate::od::{value_of, CoreHook, Hook};
 use crate::sdo::ObjectAccess;
 use crate::time::Instant;
 
@@ -89,8 +89,24 @@ pub fn write(
     data: &[u8],
     now: Instant,
 ) -> Result<Written, Abort> {
+    write_value(ctx, device, services, index, sub, value_of(data), data.len(), now)
+}
+
+/// [`write`] of `len` bytes whose first four (at most) are `value` ([`value_of`]).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn write_value(
+    ctx: &mut Context,
+    device: &mut impl Device,
+    services: &mut impl Services,
+    index: u16,
+    sub: u8,
+    value: u32,
+    len: usize,
+    now: Instant,
+) -> Result<Written, Abort> {
     let pos = ctx.od.find(index, sub)?;
-    let value = ctx.od.check_write(pos, data)?;
+    let value = ctx.od.check_value(pos, value, len)?;
     let hook = ctx.od.entry(pos).hook;
     let written = match hook {
         Hook::None => Written::Done,
@@ -160,9 +176,13 @@ impl<D: Device, S: Services> ObjectAccess for Access<'_, D, S> {
         read(self.ctx, index, sub, buf)
     }
 
-    #[inline]
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
-        write(self.ctx, self.device, self.services, index, sub, data, now)
+        self.write_value(index, sub, value_of(data), data.len(), now)
+    }
+
+    #[inline]
+    fn write_value(&mut self, index: u16, sub: u8, value: u32, len: usize, now: Instant) -> Result<Written, Abort> {
+        write_value(self.ctx, self.device, self.services, index, sub, value, len, now)
     }
 
     fn write_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort> {

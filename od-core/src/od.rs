@@ -699,8 +699,14 @@ impl Od {
 
     /// Decodes `data` written by an SDO client to `pos` and checks access, length and
     /// limits; returns the raw value to store. Nothing is changed.
-    #[inline(always)]
     pub fn check_write(&self, pos: usize, data: &[u8]) -> Result<u32, Abort> {
+        self.check_value(pos, value_of(data), data.len())
+    }
+
+    /// [`Od::check_write`] of `len` bytes whose first four (at most) are `value`
+    /// ([`value_of`]).
+    #[inline(always)]
+    pub fn check_value(&self, pos: usize, value: u32, len: usize) -> Result<u32, Abort> {
         let e = &self.table[pos];
         if e.access == Access::PdoOnly {
             return Err(Abort::UNSUPPORTED_ACCESS);
@@ -709,21 +715,15 @@ impl Od {
             return Err(Abort::READ_ONLY);
         }
         let size = e.dtype.size();
-        if data.len() > size {
+        if len > size {
             return Err(Abort::LENGTH_HIGH);
         }
-        if data.len() < size {
+        if len < size {
             return Err(Abort::LENGTH_LOW);
         }
-        let mut raw = [0u8; 4];
-        raw[..size].copy_from_slice(data);
-        let value = u32::from_le_bytes(raw);
         if let Some((lo, hi)) = e.limits() {
             let v = e.dtype.to_i64(value);
-            if v < lo {
-                return Err(Abort::INVALID_VALUE);
-            }
-            if v > hi {
+            if v < lo || v > hi {
                 return Err(Abort::INVALID_VALUE);
             }
         }
@@ -732,6 +732,17 @@ impl Od {
         }
         Ok(value)
     }
+}
+
+/// The first four bytes of `data` (all of them if fewer) as a little-endian number, the
+/// missing high bytes zero: the raw value a write of `data` carries.
+#[inline]
+pub fn value_of(data: &[u8]) -> u32 {
+    let mut v = 0;
+    for (i, b) in data.iter().take(4).enumerate() {
+        v |= (*b as u32) << (8 * i);
+    }
+    v
 }
 
 #[cfg(test)]
