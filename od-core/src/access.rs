@@ -128,6 +128,7 @@ pub fn write_value(
 
 /// The rules of a core hook: the context's own (storage, error history, pending node-ID and
 /// bit rate), else the transport's.
+#[inline(always)]
 fn core_write(
     ctx: &mut Context,
     services: &mut impl Services,
