@@ -33,10 +33,14 @@ pub trait ObjectAccess {
     /// Checks and writes `data` to (index, sub). Nothing changes on `Err`.
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort>;
     /// [`ObjectAccess::write`] of `len` bytes whose first four (at most) are `value`,
-    /// little-endian, the rest of `value` zero (`len` 1..=4): what an expedited download
-    /// carries, without a byte slice.
+    /// little-endian, the rest of `value` zero: what every download writes, without a byte
+    /// slice. No writable value is longer than 4 bytes, so the bytes past the fourth of a
+    /// longer one are not given (the default passes zeros): such a write is refused whatever
+    /// they are.
     fn write_value(&mut self, index: u16, sub: u8, value: u32, len: usize, now: Instant) -> Result<Written, Abort> {
-        self.write(index, sub, &value.to_le_bytes()[..len.min(4)], now)
+        let mut data = [0u8; MAX_VALUE];
+        data[..4].copy_from_slice(&value.to_le_bytes());
+        self.write(index, sub, &data[..len.min(MAX_VALUE)], now)
     }
     /// Size in bytes of the value at (index, sub), whatever its access: how many bytes an
     /// expedited download without size indication writes (CiA 301; issue 13 point 12,
@@ -167,68 +171,70 @@ impl SdoServer {
         if self.deferred.is_some() && (ccs == wire::CCS_INITIATE_DOWNLOAD || ccs == wire::CCS_INITIATE_UPLOAD) {
             return Err(Abort::DEVICE_STATE);
         }
-        match ccs {
+        // A download's value: (value, its length, the confirmation); every other request is
+        // answered here.
+        let (value, len, confirm) = match ccs {
             wire::CCS_INITIATE_DOWNLOAD => {
                 self.state = IDLE;
-                if cs & wire::EXPEDITED != 0 {
-                    let len = if cs & wire::SIZED != 0 {
-                        wire::expedited_len(cs)
-                    } else if self.expedited_only {
-                        return Err(Abort::INVALID_COMMAND);
-                    } else {
-                        // Without a size indication (22h) the object's size applies (CiA 301,
-                        // D-SDO-8); 4 bytes where the dictionary names none (its write then
-                        // answers the abort).
-                        dict.write_size(index, sub).ok().filter(|n| (1..=4).contains(n)).unwrap_or(4)
-                    };
-                    let value = u32_le(d, 4) & wire::mask(len);
-                    let written = dict.write_value(index, sub, value, len, now)?;
-                    return Ok(self.confirm(
-                        written,
-                        index,
-                        sub,
-                        wire::with_mux(wire::DOWNLOAD_INITIATED, index, sub, 0),
-                    ));
+                let confirm = wire::with_mux(wire::DOWNLOAD_INITIATED, index, sub, 0);
+                if cs & wire::EXPEDITED == 0 {
+                    return self.initiate_segmented(d, index, sub, now).map(|()| Some(confirm));
                 }
-                if self.expedited_only {
+                let len = if cs & wire::SIZED != 0 {
+                    wire::expedited_len(cs)
+                } else if self.expedited_only {
                     return Err(Abort::INVALID_COMMAND);
-                }
-                let size = match cs & wire::SIZED {
-                    0 => NO_SIZE,
-                    _ => match u32_le(d, 4) {
-                        s if s > MAX_VALUE as u32 => return Err(Abort::LENGTH_HIGH),
-                        s => s as u8,
-                    },
+                } else {
+                    // Without a size indication (22h) the object's size applies (CiA 301,
+                    // D-SDO-8); 4 bytes where the dictionary names none (its write then answers
+                    // the abort).
+                    dict.write_size(index, sub).ok().filter(|n| (1..=4).contains(n)).unwrap_or(4)
                 };
-                self.begin(DOWNLOAD, index, sub, now);
-                self.size = size;
-                Ok(Some(wire::with_mux(wire::DOWNLOAD_INITIATED, index, sub, 0)))
+                (u32_le(d, 4) & wire::mask(len), len, confirm)
             }
+            wire::CCS_DOWNLOAD_SEGMENT if self.state == DOWNLOAD => match self.download_segment(d, now)? {
+                Ok(whole) => whole,
+                Err(confirm) => return Ok(Some(confirm)),
+            },
             wire::CCS_INITIATE_UPLOAD => {
                 self.state = IDLE;
-                self.upload(index, sub, now, dict).map(Some)
+                return self.upload(index, sub, now, dict).map(Some);
             }
-            wire::CCS_UPLOAD_SEGMENT if self.state == UPLOAD => self.upload_segment(cs, now).map(Some),
-            wire::CCS_DOWNLOAD_SEGMENT if self.state == DOWNLOAD => self.download_segment(d, now, dict),
+            wire::CCS_UPLOAD_SEGMENT if self.state == UPLOAD => return self.upload_segment(cs, now).map(Some),
             // Abort from the client: the transfer ends without an answer.
             wire::CCS_ABORT => {
                 self.state = IDLE;
-                Ok(None)
+                return Ok(None);
             }
             // A segment outside its transfer, block upload/download and the reserved command.
-            _ => Err(Abort::INVALID_COMMAND),
+            _ => return Err(Abort::INVALID_COMMAND),
+        };
+        // The one write: an expedited download's, or a segmented one's after its last segment.
+        match dict.write_value(index, sub, value, len, now)? {
+            Written::Done => Ok(Some(confirm)),
+            Written::Deferred => {
+                self.deferred = Some((index, sub, confirm));
+                Ok(None)
+            }
         }
     }
 
-    /// The answer to a write that went through: `confirm` now, or later for a deferred one.
-    fn confirm(&mut self, written: Written, index: u16, sub: u8, confirm: [u8; 8]) -> Option<[u8; 8]> {
-        match written {
-            Written::Done => Some(confirm),
-            Written::Deferred => {
-                self.deferred = Some((index, sub, confirm));
-                None
-            }
+    /// An initiate segmented download (e = 0): the transfer begins, unless the server takes
+    /// expedited ones only or the size indicated is more than any value holds.
+    fn initiate_segmented(&mut self, d: &[u8; 8], index: u16, sub: u8, now: Instant) -> Result<(), Abort> {
+        if self.expedited_only {
+            return Err(Abort::INVALID_COMMAND);
         }
+        let size = match d[0] & wire::SIZED {
+            0 => NO_SIZE,
+            _ => match u32_le(d, 4) {
+                s if s > MAX_VALUE as u32 => return Err(Abort::LENGTH_HIGH),
+                s => s as u8,
+            },
+        };
+        self.begin(DOWNLOAD, index, sub, now);
+        self.size = size;
+        Ok(())
     }
 
     #[inline]
@@ -268,12 +274,10 @@ impl SdoServer {
         Ok(out)
     }
 
-    fn download_segment(
-        &mut self,
-        d: &[u8; 8],
-        now: Instant,
-        dict: &mut impl ObjectAccess,
-    ) -> Result<Option<[u8; 8]>, Abort> {
+    /// A download segment: its bytes join the value. `Ok(Err(confirm))` while more follow;
+    /// after the last one, `Ok(Ok((value, len, confirm)))` to write.
+    #[allow(clippy::type_complexity)]
+    fn download_segment(&mut self, d: &[u8; 8], now: Instant) -> Result<Result<(u32, usize, [u8; 8]), [u8; 8]>, Abort> {
         let cs = d[0];
         let toggle = cs & wire::TOGGLE;
         self.step_toggle(toggle, now)?;
@@ -287,16 +291,13 @@ impl SdoServer {
         self.len = len as u8;
         let confirm = [wire::DOWNLOAD_SEGMENT | toggle, 0, 0, 0, 0, 0, 0, 0];
         if cs & wire::LAST == 0 {
-            return Ok(Some(confirm));
+            return Ok(Err(confirm));
         }
         self.state = IDLE;
         if self.size != NO_SIZE && self.size as usize != len {
             return Err(Abort::LENGTH_MISMATCH);
         }
-        let (index, sub) = (self.index, self.sub);
-        let value = self.buf;
-        let written = dict.write(index, sub, &value[..len], now)?;
-        Ok(self.confirm(written, index, sub, confirm))
+        Ok(Ok((value_of(&self.buf[..len]), len, confirm)))
     }
 
     /// A segment with toggle bit `toggle` (its bit in the command byte): the one expected, or
