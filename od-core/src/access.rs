@@ -10,7 +10,7 @@ use crate::context::{Context, Written};
 use crate::device::Device;
 use crate::errors;
 use crate::od::{value_of, CoreHook, Hook};
-use crate::sdo::ObjectAccess;
+use crate::sdo::{ObjectAccess, MAX_VALUE};
 use crate::time::Instant;
 
 /// The rules of the core hooks a transport's services own (CANopen: heartbeat, guarding,
@@ -169,8 +169,16 @@ impl<D: Device, S: Services> ObjectAccess for Access<'_, D, S> {
     }
 
     #[inline(always)]
-    fn read_short(&mut self, index: u16, sub: u8) -> Result<Option<([u8; 4], usize)>, Abort> {
-        read_short(self.ctx, index, sub)
+    fn read_value(&mut self, index: u16, sub: u8, buf: &mut [u8; MAX_VALUE]) -> Result<(u32, usize), Abort> {
+        let pos = readable(self.ctx, index, sub)?;
+        let e = self.ctx.od.entry(pos);
+        match e.string_value() {
+            Some(s) => {
+                buf[..s.len()].copy_from_slice(s);
+                Ok((value_of(s), s.len()))
+            }
+            None => Ok((self.ctx.od.get(pos), e.dtype.size())),
+        }
     }
 
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort> {

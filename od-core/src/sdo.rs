@@ -21,14 +21,12 @@ pub trait ObjectAccess {
     fn read_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort>;
     /// Copies the value at (index, sub) into `buf` (at least `read_size` bytes); returns its size.
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort>;
-    /// The value at (index, sub), after the access check for reading, when it is 4 bytes or
-    /// fewer: its bytes (little-endian, the rest zero) and its size; `Ok(None)` for a longer
-    /// value, which [`ObjectAccess::read`] then reads. Lets an expedited upload take one
-    /// lookup and no value buffer.
-    fn read_short(&mut self, index: u16, sub: u8) -> Result<Option<([u8; 4], usize)>, Abort> {
-        let mut buf = [0u8; MAX_VALUE];
-        let n = self.read(index, sub, &mut buf)?;
-        Ok((n <= 4).then_some(([buf[0], buf[1], buf[2], buf[3]], n)))
+    /// The value at (index, sub), after the access check for reading: its first four bytes
+    /// (little-endian, the missing ones zero) and its size; a value longer than 4 bytes is in
+    /// `buf` too. What an upload takes: one lookup, and no copy of a number.
+    fn read_value(&mut self, index: u16, sub: u8, buf: &mut [u8; MAX_VALUE]) -> Result<(u32, usize), Abort> {
+        let n = self.read(index, sub, buf)?;
+        Ok((value_of(&buf[..n.min(4)]), n))
     }
     /// Checks and writes `data` to (index, sub). Nothing changes on `Err`.
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort>;
@@ -80,7 +78,8 @@ pub struct SdoServer {
     pos: u8,
     sub: u8,
     index: u16,
-    deadline: Instant,
+    /// When the client last spoke in the transfer under way: it times out [`TIMEOUT`] later.
+    spoke: Instant,
     /// The answer a write waits to give: (index, sub) for an abort instead, and the
     /// confirmation.
     deferred: Option<(u16, u8, [u8; 8])>,
@@ -110,7 +109,7 @@ impl SdoServer {
             pos: 0,
             sub: 0,
             index: 0,
-            deadline: Instant::ZERO,
+            spoke: Instant::ZERO,
             deferred: None,
             buf: [0; MAX_VALUE],
         }
@@ -239,21 +238,16 @@ impl SdoServer {
 
     #[inline]
     fn upload(&mut self, index: u16, sub: u8, now: Instant, dict: &mut impl ObjectAccess) -> Result<[u8; 8], Abort> {
-        // A value of 4 bytes or fewer goes out expedited after one lookup; a longer one is
-        // read whole and sent segmented.
-        if let Some((data, n)) = dict.read_short(index, sub)? {
-            return Ok(wire::upload_expedited(index, sub, u32::from_le_bytes(data), n));
-        }
-        let mut value = [0u8; MAX_VALUE];
-        let mut n = dict.read(index, sub, &mut value)?;
+        // A value of 4 bytes or fewer goes out expedited; a longer one is read whole and sent
+        // segmented.
+        let (value, mut n) = dict.read_value(index, sub, &mut self.buf)?;
         if self.expedited_only {
             n = n.min(4);
         }
         if n <= 4 {
-            return Ok(wire::upload_expedited(index, sub, value_of(&value[..4]), n));
+            return Ok(wire::upload_expedited(index, sub, value, n));
         }
         self.begin(UPLOAD, index, sub, now);
-        self.buf = value;
         self.len = n as u8;
         Ok(wire::with_mux(wire::UPLOAD_SEGMENTED, index, sub, n as u32))
     }
@@ -307,7 +301,7 @@ impl SdoServer {
             return Err(Abort::TOGGLE);
         }
         self.toggle = !self.toggle;
-        self.deadline = now + TIMEOUT;
+        self.spoke = now;
         Ok(())
     }
 
@@ -318,12 +312,12 @@ impl SdoServer {
         self.toggle = false;
         self.len = 0;
         self.pos = 0;
-        self.deadline = now + TIMEOUT;
+        self.spoke = now;
     }
 
     /// Aborts a transfer whose client fell silent; returns the abort frame payload.
     pub fn poll(&mut self, now: Instant) -> Option<[u8; 8]> {
-        if self.state != IDLE && now >= self.deadline {
+        if self.state != IDLE && now >= self.spoke + TIMEOUT {
             self.state = IDLE;
             return Some(abort_frame(self.index, self.sub, Abort::TIMEOUT));
         }
@@ -332,7 +326,7 @@ impl SdoServer {
 
     /// When [`SdoServer::poll`] must next run.
     pub fn next_deadline(&self) -> Option<Instant> {
-        (self.state != IDLE).then_some(self.deadline)
+        (self.state != IDLE).then_some(self.spoke + TIMEOUT)
     }
 
     /// The deferred write finished; returns the response to send.
