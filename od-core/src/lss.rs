@@ -26,6 +26,7 @@ use crate::context::{Context, Output};
 use crate::frame::Frame;
 use crate::od::{CoreHook, GroupMask, Od};
 use crate::time::{Duration, Instant};
+use crate::wire::lss::response;
 
 pub use crate::wire::lss::{
     cs, error, IdentifyStep, LssState, Part, Request, Response, FASTSCAN_RESET, MASTER_ID as RX_ID, SLAVE_ID as TX_ID,
@@ -162,8 +163,10 @@ impl Lss {
         !ctx.configured() && !(1..=127).contains(&self.pending_node_id(ctx))
     }
 
-    fn send(&mut self, ctx: &mut Context, response: Response) {
-        ctx.out.send(Frame::std(TX_ID, &response.emit()));
+    /// Answers with command specifier `cs` and bytes 1..=4 `tail` ([`response`]: the
+    /// [`Response`] the tests read back).
+    fn send(&mut self, ctx: &mut Context, cs: u8, tail: u32) {
+        ctx.out.send(Frame::std(TX_ID, &response(cs, tail)));
     }
 
     /// Switch state global. True when the node must now activate its pending node-ID: CiA 305
@@ -214,7 +217,7 @@ impl Lss {
             }
             (_, Request::IdentifyRemoteSlave { step, value }) => self.identify(ctx, step, value),
             (_, Request::IdentifyNonConfiguredRemoteSlave) if self.non_configured(ctx) => {
-                self.send(ctx, Response::IdentifyNonConfiguredSlave)
+                self.send(ctx, cs::IDENTIFY_NON_CONFIGURED_SLAVE, 0)
             }
             (LssState::Waiting, Request::Fastscan { id, bit_checked, sub, next }) => {
                 self.fastscan(ctx, id, bit_checked, sub, next)
@@ -228,7 +231,7 @@ impl Lss {
                 } else {
                     error::OUT_OF_RANGE
                 };
-                self.send(ctx, Response::ConfigureNodeId { error, spec: 0 });
+                self.send(ctx, cs::CONFIGURE_NODE_ID, error as u32);
             }
             (LssState::Configuration, Request::ConfigureBitTiming { selector, index }) => {
                 // Only the CiA table (selector 0), and only the rates the device codes: index 5
@@ -246,7 +249,7 @@ impl Lss {
                     }
                     None => error::OUT_OF_RANGE,
                 };
-                self.send(ctx, Response::ConfigureBitTiming { error, spec: 0 });
+                self.send(ctx, cs::CONFIGURE_BIT_TIMING, error as u32);
             }
             // Not while a store waits for the shell: its answer would fall into the silence.
             (LssState::Configuration, Request::ActivateBitTiming { delay_ms }) if !ctx.storage.saving() => {
@@ -266,16 +269,16 @@ impl Lss {
                     self.storing = true;
                 } else {
                     // A 1010h save is under way: this store cannot start.
-                    self.send(ctx, Response::StoreConfiguration { error: error::STORE_FAILED, spec: 0 });
+                    self.send(ctx, cs::STORE_CONFIGURATION, error::STORE_FAILED as u32);
                 }
             }
             (LssState::Configuration, Request::InquireIdentity(part)) => {
                 let value = part_value(&ctx.od, part);
-                self.send(ctx, Response::InquireIdentity { part, value });
+                self.send(ctx, cs::INQUIRE_IDENTITY + part.index(), value);
             }
             (LssState::Configuration, Request::InquireNodeId) => {
                 let id = ctx.node_id;
-                self.send(ctx, Response::InquireNodeId(id));
+                self.send(ctx, cs::INQUIRE_NODE_ID, id as u32);
             }
             // Selective and Fastscan in configuration, configuration services in waiting, and the
             // refused cases above.
@@ -295,7 +298,7 @@ impl Lss {
         if part == Part::Serial {
             lss.selective = 0;
             lss.state = LssState::Configuration;
-            self.send(ctx, Response::SwitchStateSelective);
+            self.send(ctx, cs::SWITCH_STATE_SELECTIVE_RESPONSE, 0);
         } else {
             lss.selective = expected + 1;
         }
@@ -311,7 +314,7 @@ impl Lss {
         }
         if step == IdentifyStep::SerialHigh {
             self.identify = 0;
-            self.send(ctx, Response::IdentifySlave);
+            self.send(ctx, cs::IDENTIFY_SLAVE, 0);
         } else {
             self.identify = expected + 1;
         }
@@ -339,7 +342,7 @@ impl Lss {
                 self.state = LssState::Configuration;
             }
         }
-        self.send(ctx, Response::IdentifySlave);
+        self.send(ctx, cs::IDENTIFY_SLAVE, 0);
     }
 
     /// Runs the activate bit timing delays: after d1 the node switches to the pending rate
@@ -409,7 +412,7 @@ impl Lss {
         }
         self.storing = false;
         let error = if ok { error::OK } else { error::STORE_FAILED };
-        self.send(ctx, Response::StoreConfiguration { error, spec: 0 });
+        self.send(ctx, cs::STORE_CONFIGURATION, error as u32);
         true
     }
 }

@@ -212,6 +212,14 @@ fn lss_bytes(cs: u8, body: [u8; 7]) -> [u8; 8] {
     [cs, body[0], body[1], body[2], body[3], body[4], body[5], body[6]]
 }
 
+/// A slave's message: command specifier `cs`, bytes 1..=4 `tail` little-endian (a value, or
+/// the error code in byte 1 and the implementation-specific error in byte 2), the rest 00h:
+/// the shape of every [`Response`].
+#[inline]
+pub const fn response(cs: u8, tail: u32) -> [u8; 8] {
+    (cs as u64 | (tail as u64) << 8).to_le_bytes()
+}
+
 /// Bytes 1..=7 holding `value` little-endian in bytes 1..=4.
 fn u32_body(value: u32) -> [u8; 7] {
     let v = value.to_le_bytes();
@@ -335,17 +343,18 @@ pub enum Response {
 impl Response {
     /// The data bytes the slave sends (reserved bytes 00h).
     pub fn emit(&self) -> [u8; 8] {
-        let (c, body) = match *self {
-            Response::SwitchStateSelective => (cs::SWITCH_STATE_SELECTIVE_RESPONSE, [0; 7]),
-            Response::ConfigureNodeId { error, spec } => (cs::CONFIGURE_NODE_ID, [error, spec, 0, 0, 0, 0, 0]),
-            Response::ConfigureBitTiming { error, spec } => (cs::CONFIGURE_BIT_TIMING, [error, spec, 0, 0, 0, 0, 0]),
-            Response::StoreConfiguration { error, spec } => (cs::STORE_CONFIGURATION, [error, spec, 0, 0, 0, 0, 0]),
-            Response::IdentifySlave => (cs::IDENTIFY_SLAVE, [0; 7]),
-            Response::IdentifyNonConfiguredSlave => (cs::IDENTIFY_NON_CONFIGURED_SLAVE, [0; 7]),
-            Response::InquireIdentity { part, value } => (cs::INQUIRE_IDENTITY + part.index(), u32_body(value)),
-            Response::InquireNodeId(id) => (cs::INQUIRE_NODE_ID, [id, 0, 0, 0, 0, 0, 0]),
+        let error = |error: u8, spec: u8| error as u32 | (spec as u32) << 8;
+        let (c, tail) = match *self {
+            Response::SwitchStateSelective => (cs::SWITCH_STATE_SELECTIVE_RESPONSE, 0),
+            Response::ConfigureNodeId { error: e, spec } => (cs::CONFIGURE_NODE_ID, error(e, spec)),
+            Response::ConfigureBitTiming { error: e, spec } => (cs::CONFIGURE_BIT_TIMING, error(e, spec)),
+            Response::StoreConfiguration { error: e, spec } => (cs::STORE_CONFIGURATION, error(e, spec)),
+            Response::IdentifySlave => (cs::IDENTIFY_SLAVE, 0),
+            Response::IdentifyNonConfiguredSlave => (cs::IDENTIFY_NON_CONFIGURED_SLAVE, 0),
+            Response::InquireIdentity { part, value } => (cs::INQUIRE_IDENTITY + part.index(), value),
+            Response::InquireNodeId(id) => (cs::INQUIRE_NODE_ID, id as u32),
         };
-        lss_bytes(c, body)
+        response(c, tail)
     }
 
     /// Parses the data bytes of a slave's message (7E4h, what a master reads); `None` for a
