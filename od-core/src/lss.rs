@@ -334,7 +334,7 @@ impl Lss {
     /// six steps in order; a slave that passed all answers 4Fh (CiA 305).
     fn identify(&mut self, ctx: &mut Context, step: IdentifyStep, value: u32) {
         let expected = if step == IdentifyStep::Vendor { 0 } else { self.identify };
-        if step.index() != expected || !step.matches(&address(&ctx.od), value) {
+        if step.index() != expected || !step.passes(part_value(&ctx.od, step.part()), value) {
             self.identify = 0;
             return;
         }
@@ -446,11 +446,6 @@ impl Lss {
 /// A part's value in the dictionary (1018h sub 1..4); 0 if not declared.
 fn part_value(od: &Od, part: Part) -> u32 {
     od.value(0x1018, part.index() + 1).unwrap_or(0)
-}
-
-/// The LSS address: 1018h sub 1..4.
-fn address(od: &Od) -> [u32; 4] {
-    Part::ALL.map(|p| part_value(od, p))
 }
 
 #[cfg(test)]

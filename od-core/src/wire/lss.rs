@@ -135,6 +135,26 @@ impl IdentifyStep {
         self as u8
     }
 
+    /// The part of the LSS address the step compares.
+    pub const fn part(self) -> Part {
+        match self {
+            IdentifyStep::Vendor => Part::Vendor,
+            IdentifyStep::Product => Part::Product,
+            IdentifyStep::RevisionLow | IdentifyStep::RevisionHigh => Part::Revision,
+            IdentifyStep::SerialLow | IdentifyStep::SerialHigh => Part::Serial,
+        }
+    }
+
+    /// Does a slave whose address part [`IdentifyStep::part`] is `own` pass this step for
+    /// `value`: equal vendor and product, revision and serial within the bounds?
+    pub const fn passes(self, own: u32, value: u32) -> bool {
+        match self {
+            IdentifyStep::Vendor | IdentifyStep::Product => own == value,
+            IdentifyStep::RevisionLow | IdentifyStep::SerialLow => own >= value,
+            IdentifyStep::RevisionHigh | IdentifyStep::SerialHigh => own <= value,
+        }
+    }
+
     /// Does the slave whose LSS address is `address` pass this step for `value`?
     pub fn matches(self, address: &[u32; 4], value: u32) -> bool {
         match self {
@@ -508,6 +528,14 @@ mod tests {
     }
 
     proptest! {
+        /// A step judged on its own part of the address judges as on the whole address.
+        #[test]
+        fn a_step_passes_on_its_part_as_on_the_address(step in 0u8..6, address in any::<[u32; 4]>(), value in any::<u32>()) {
+            let step = IdentifyStep::from_index(step).unwrap();
+            prop_assert_eq!(step.passes(address[step.part().index() as usize], value), step.matches(&address, value));
+            prop_assert_eq!(step.passes(value, value), step.matches(&[value; 4], value));
+        }
+
         #[test]
         fn requests_round_trip(r in request()) {
             prop_assert_eq!(Request::parse(&r.emit()), Some(r));
