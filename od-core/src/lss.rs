@@ -18,7 +18,8 @@
 //! ([`crate::device::Device::bitrate_codes`]), not the CiA 305 table index.
 //!
 //! The messages are [`crate::wire::lss`]'s [`Request`]s and [`Response`]s; this module is the
-//! slave's state machine over them. Every decision the manuals leave open is in
+//! slave's state machine over them, reading and answering them straight as bytes (D-ARCH-7's
+//! reason, as for SDO). Every decision the manuals leave open is in
 //! `docs/decisions.md`, section "LSS".
 
 use crate::bitrate::Bitrate;

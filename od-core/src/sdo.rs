@@ -1,7 +1,8 @@
 //! SDO server (CiA 301 §7.2.4): expedited and segmented transfers on 600h/580h + node-ID.
 //!
-//! The server is a small state machine over the requests [`crate::wire::sdo`] parses from the
-//! 8 data bytes, whatever carries them (CANopen 600h/580h, J1939 CAM21/CAM11). Every value is read
+//! The server is a small state machine over the 8 data bytes of the requests
+//! [`crate::wire::sdo`] describes, whatever carries them (CANopen 600h/580h, J1939
+//! CAM21/CAM11); it reads them and writes its answers straight as bytes (D-ARCH-7). Every value is read
 //! whole when an upload starts and written whole when a download ends, through
 //! [`ObjectAccess`], whose write is atomic: an aborted or timed-out transfer leaves the
 //! dictionary untouched. Block transfer is not offered; its command specifiers abort with
