@@ -92,7 +92,7 @@ pub fn write(
     write_value(ctx, device, services, index, sub, value_of(data), data.len(), now)
 }
 
-/// [`write`] of `len` bytes whose first four (at most) are `value` ([`value_of`]).
+/// [`write()`] of `len` bytes whose first four (at most) are `value` ([`value_of`]).
 #[allow(clippy::too_many_arguments)]
 #[inline]
 pub fn write_value(
