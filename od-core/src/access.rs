@@ -9,8 +9,8 @@ use crate::abort::Abort;
 use crate::context::{Context, Written};
 use crate::device::Device;
 use crate::errors;
-use crate::od::{CoreHook, Hook};
-use crate::sdo::ObjectAccess;
+use crate::od::{value_of, CoreHook, Hook};
+use crate::sdo::{ObjectAccess, MAX_VALUE};
 use crate::time::Instant;
 
 /// The rules of the core hooks a transport's services own (CANopen: heartbeat, guarding,
@@ -89,8 +89,24 @@ pub fn write(
     data: &[u8],
     now: Instant,
 ) -> Result<Written, Abort> {
+    write_value(ctx, device, services, index, sub, value_of(data), data.len(), now)
+}
+
+/// [`write()`] of `len` bytes whose first four (at most) are `value` ([`value_of`]).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+pub fn write_value(
+    ctx: &mut Context,
+    device: &mut impl Device,
+    services: &mut impl Services,
+    index: u16,
+    sub: u8,
+    value: u32,
+    len: usize,
+    now: Instant,
+) -> Result<Written, Abort> {
     let pos = ctx.od.find(index, sub)?;
-    let value = ctx.od.check_write(pos, data)?;
+    let value = ctx.od.check_value(pos, value, len)?;
     let hook = ctx.od.entry(pos).hook;
     let written = match hook {
         Hook::None => Written::Done,
@@ -112,6 +128,7 @@ pub fn write(
 
 /// The rules of a core hook: the context's own (storage, error history, pending node-ID and
 /// bit rate), else the transport's.
+#[inline(always)]
 fn core_write(
     ctx: &mut Context,
     services: &mut impl Services,
@@ -152,17 +169,29 @@ impl<D: Device, S: Services> ObjectAccess for Access<'_, D, S> {
     }
 
     #[inline(always)]
-    fn read_short(&mut self, index: u16, sub: u8) -> Result<Option<([u8; 4], usize)>, Abort> {
-        read_short(self.ctx, index, sub)
+    fn read_value(&mut self, index: u16, sub: u8, buf: &mut [u8; MAX_VALUE]) -> Result<(u32, usize), Abort> {
+        let pos = readable(self.ctx, index, sub)?;
+        let e = self.ctx.od.entry(pos);
+        match e.string_value() {
+            Some(s) => {
+                buf[..s.len()].copy_from_slice(s);
+                Ok((value_of(s), s.len()))
+            }
+            None => Ok((self.ctx.od.get(pos), e.dtype.size())),
+        }
     }
 
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort> {
         read(self.ctx, index, sub, buf)
     }
 
-    #[inline]
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort> {
-        write(self.ctx, self.device, self.services, index, sub, data, now)
+        self.write_value(index, sub, value_of(data), data.len(), now)
+    }
+
+    #[inline]
+    fn write_value(&mut self, index: u16, sub: u8, value: u32, len: usize, now: Instant) -> Result<Written, Abort> {
+        write_value(self.ctx, self.device, self.services, index, sub, value, len, now)
     }
 
     fn write_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort> {

@@ -211,14 +211,22 @@ impl Errors {
     }
 }
 
+/// How many members (sub-indices after it) the object whose sub 0 is at `head` declares: the
+/// history's capacity, for its push and its clear.
+#[inline(never)]
+fn members(od: &Od, head: usize) -> usize {
+    let table = od.table();
+    let index = table.get(head).map_or(0, |e| e.index);
+    table.get(head + 1..).unwrap_or(&[]).iter().take_while(|e| e.index == index).count()
+}
+
 /// Enters `code` at 1003h.01; older entries move up one sub-index, the oldest falls out when
 /// the history is full; sub 0 counts the entries.
 fn history_push(od: &mut Od, code: u16) {
     let Some(head) = od.pos(ERROR_HISTORY, 0) else {
         return;
     };
-    let table = od.table();
-    let capacity = table[head + 1..].iter().take_while(|e| e.index == ERROR_HISTORY).count();
+    let capacity = members(od, head);
     if capacity == 0 {
         return;
     }
@@ -237,9 +245,7 @@ pub fn clear_history(od: &mut Od, pos: usize, value: u32) -> Result<(), Abort> {
     if value != 0 {
         return Err(Abort::INVALID_VALUE);
     }
-    let table = od.table();
-    let members = table[pos + 1..].iter().take_while(|e| e.index == table[pos].index).count();
-    for k in 1..=members {
+    for k in 1..=members(od, pos) {
         od.set(pos + k, 0);
     }
     Ok(())

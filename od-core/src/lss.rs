@@ -18,7 +18,8 @@
 //! ([`crate::device::Device::bitrate_codes`]), not the CiA 305 table index.
 //!
 //! The messages are [`crate::wire::lss`]'s [`Request`]s and [`Response`]s; this module is the
-//! slave's state machine over them. Every decision the manuals leave open is in
+//! slave's state machine over them, reading and answering them straight as bytes (D-ARCH-8's
+//! reason, as for SDO). Every decision the manuals leave open is in
 //! `docs/decisions.md`, section "LSS".
 
 use crate::bitrate::Bitrate;
@@ -26,6 +27,8 @@ use crate::context::{Context, Output};
 use crate::frame::Frame;
 use crate::od::{CoreHook, GroupMask, Od};
 use crate::time::{Duration, Instant};
+use crate::wire::lss::response;
+use crate::wire::{exactly_8, u32_le};
 
 pub use crate::wire::lss::{
     cs, error, IdentifyStep, LssState, Part, Request, Response, FASTSCAN_RESET, MASTER_ID as RX_ID, SLAVE_ID as TX_ID,
@@ -162,8 +165,10 @@ impl Lss {
         !ctx.configured() && !(1..=127).contains(&self.pending_node_id(ctx))
     }
 
-    fn send(&mut self, ctx: &mut Context, response: Response) {
-        ctx.out.send(Frame::std(TX_ID, &response.emit()));
+    /// Answers with command specifier `cs` and bytes 1..=4 `tail` ([`response`]: the
+    /// [`Response`] the tests read back).
+    fn send(&mut self, ctx: &mut Context, cs: u8, tail: u32) {
+        ctx.out.send(Frame::std(TX_ID, &response(cs, tail)));
     }
 
     /// Switch state global. True when the node must now activate its pending node-ID: CiA 305
@@ -186,14 +191,23 @@ impl Lss {
     /// Handles a frame on 7E5h. Requests the LSS state does not allow, and malformed frames, are
     /// ignored without an answer (the manuals' Table 10; CiA 305 has no error answer for them).
     /// During an activate bit timing only switch state global, which has no answer, is handled.
+    ///
+    /// The request is read straight from its bytes, as [`Request::parse`] reads it (its tests
+    /// document the messages): no request value is built and matched again.
     pub fn on_frame(&mut self, ctx: &mut Context, frame: &Frame, now: Instant) -> LssEvent {
         if !self.enabled {
             return LssEvent::None;
         }
-        let Some(request) = Request::parse(frame.payload()) else {
+        let Some(d) = exactly_8(frame.payload()) else {
             return LssEvent::None;
         };
-        if let Request::SwitchStateGlobal(to) = request {
+        let (c, value) = (d[0], u32_le(d, 1));
+        if c == cs::SWITCH_STATE_GLOBAL {
+            let to = match d[1] {
+                0 => LssState::Waiting,
+                1 => LssState::Configuration,
+                _ => return LssEvent::None,
+            };
             let activate = self.switch_global(ctx, to);
             return match self.switch.as_mut() {
                 // During a bit-rate switch the activation waits for its end.
@@ -208,19 +222,33 @@ impl Lss {
         if self.switching() {
             return LssEvent::None;
         }
-        match (self.state, request) {
-            (LssState::Waiting, Request::SwitchStateSelective { part, value }) => {
-                self.switch_selective(ctx, part, value)
+        let configuration = self.state == LssState::Configuration;
+        match c {
+            0x40..=0x43 if !configuration => {
+                if let Some(part) = Part::from_index(c - cs::SWITCH_STATE_SELECTIVE) {
+                    self.switch_selective(ctx, part, value);
+                }
             }
-            (_, Request::IdentifyRemoteSlave { step, value }) => self.identify(ctx, step, value),
-            (_, Request::IdentifyNonConfiguredRemoteSlave) if self.non_configured(ctx) => {
-                self.send(ctx, Response::IdentifyNonConfiguredSlave)
+            0x46..=0x4B => {
+                if let Some(step) = IdentifyStep::from_index(c - cs::IDENTIFY_REMOTE_SLAVE) {
+                    self.identify(ctx, step, value);
+                }
             }
-            (LssState::Waiting, Request::Fastscan { id, bit_checked, sub, next }) => {
-                self.fastscan(ctx, id, bit_checked, sub, next)
+            cs::IDENTIFY_NON_CONFIGURED_REMOTE_SLAVE if self.non_configured(ctx) => {
+                self.send(ctx, cs::IDENTIFY_NON_CONFIGURED_SLAVE, 0)
             }
-            (LssState::Configuration, Request::ConfigureNodeId(id)) => {
+            cs::FASTSCAN if !configuration => {
+                let bit_checked = d[5];
+                if bit_checked > 31 && bit_checked != FASTSCAN_RESET {
+                    return LssEvent::None;
+                }
+                if let (Some(sub), Some(next)) = (Part::from_index(d[6]), Part::from_index(d[7])) {
+                    self.fastscan(ctx, value, bit_checked, sub, next);
+                }
+            }
+            cs::CONFIGURE_NODE_ID if configuration => {
                 // 1..127, or FFh to make the node unconfigured (CiA 305).
+                let id = d[1];
                 let error = if (1..=127).contains(&id) || id == UNCONFIGURED {
                     let pos = self.pending_node_id;
                     ctx.od.set(pos, id as u32);
@@ -228,13 +256,13 @@ impl Lss {
                 } else {
                     error::OUT_OF_RANGE
                 };
-                self.send(ctx, Response::ConfigureNodeId { error, spec: 0 });
+                self.send(ctx, cs::CONFIGURE_NODE_ID, error as u32);
             }
-            (LssState::Configuration, Request::ConfigureBitTiming { selector, index }) => {
+            cs::CONFIGURE_BIT_TIMING if configuration => {
                 // Only the CiA table (selector 0), and only the rates the device codes: index 5
                 // (100 kbit/s, "reserved"), 8 (10 kbit/s) and 9 (automatic) have no code.
-                let code = match selector {
-                    0 => Bitrate::from_cia_index(index).and_then(|rate| code_of(self.codes, rate)),
+                let code = match d[1] {
+                    0 => Bitrate::from_cia_index(d[2]).and_then(|rate| code_of(self.codes, rate)),
                     _ => None,
                 };
                 let error = match code {
@@ -246,11 +274,11 @@ impl Lss {
                     }
                     None => error::OUT_OF_RANGE,
                 };
-                self.send(ctx, Response::ConfigureBitTiming { error, spec: 0 });
+                self.send(ctx, cs::CONFIGURE_BIT_TIMING, error as u32);
             }
             // Not while a store waits for the shell: its answer would fall into the silence.
-            (LssState::Configuration, Request::ActivateBitTiming { delay_ms }) if !ctx.storage.saving() => {
-                let delay = Duration::from_millis(delay_ms as u64);
+            cs::ACTIVATE_BIT_TIMING if configuration && !ctx.storage.saving() => {
+                let delay = Duration::from_millis(u16::from_le_bytes([d[1], d[2]]) as u64);
                 self.switch = Some(Switch {
                     adopt_at: now + delay,
                     boot_at: now + delay.times(2),
@@ -261,24 +289,26 @@ impl Lss {
                 return LssEvent::Switching;
             }
             // A repeated request gets the one answer when the shell is done.
-            (LssState::Configuration, Request::StoreConfiguration) if !self.storing => {
+            cs::STORE_CONFIGURATION if configuration && !self.storing => {
                 if ctx.request_store(GroupMask::LSS).is_ok() {
                     self.storing = true;
                 } else {
                     // A 1010h save is under way: this store cannot start.
-                    self.send(ctx, Response::StoreConfiguration { error: error::STORE_FAILED, spec: 0 });
+                    self.send(ctx, cs::STORE_CONFIGURATION, error::STORE_FAILED as u32);
                 }
             }
-            (LssState::Configuration, Request::InquireIdentity(part)) => {
-                let value = part_value(&ctx.od, part);
-                self.send(ctx, Response::InquireIdentity { part, value });
+            0x5A..=0x5D if configuration => {
+                if let Some(part) = Part::from_index(c - cs::INQUIRE_IDENTITY) {
+                    let value = part_value(&ctx.od, part);
+                    self.send(ctx, c, value);
+                }
             }
-            (LssState::Configuration, Request::InquireNodeId) => {
+            cs::INQUIRE_NODE_ID if configuration => {
                 let id = ctx.node_id;
-                self.send(ctx, Response::InquireNodeId(id));
+                self.send(ctx, cs::INQUIRE_NODE_ID, id as u32);
             }
-            // Selective and Fastscan in configuration, configuration services in waiting, and the
-            // refused cases above.
+            // Selective and Fastscan in configuration, configuration services in waiting, the
+            // refused cases above, and unknown commands.
             _ => {}
         }
         LssEvent::None
@@ -295,7 +325,7 @@ impl Lss {
         if part == Part::Serial {
             lss.selective = 0;
             lss.state = LssState::Configuration;
-            self.send(ctx, Response::SwitchStateSelective);
+            self.send(ctx, cs::SWITCH_STATE_SELECTIVE_RESPONSE, 0);
         } else {
             lss.selective = expected + 1;
         }
@@ -305,13 +335,13 @@ impl Lss {
     /// six steps in order; a slave that passed all answers 4Fh (CiA 305).
     fn identify(&mut self, ctx: &mut Context, step: IdentifyStep, value: u32) {
         let expected = if step == IdentifyStep::Vendor { 0 } else { self.identify };
-        if step.index() != expected || !step.matches(&address(&ctx.od), value) {
+        if step.index() != expected || !step.passes(part_value(&ctx.od, step.part()), value) {
             self.identify = 0;
             return;
         }
         if step == IdentifyStep::SerialHigh {
             self.identify = 0;
-            self.send(ctx, Response::IdentifySlave);
+            self.send(ctx, cs::IDENTIFY_SLAVE, 0);
         } else {
             self.identify = expected + 1;
         }
@@ -339,7 +369,7 @@ impl Lss {
                 self.state = LssState::Configuration;
             }
         }
-        self.send(ctx, Response::IdentifySlave);
+        self.send(ctx, cs::IDENTIFY_SLAVE, 0);
     }
 
     /// Runs the activate bit timing delays: after d1 the node switches to the pending rate
@@ -409,7 +439,7 @@ impl Lss {
         }
         self.storing = false;
         let error = if ok { error::OK } else { error::STORE_FAILED };
-        self.send(ctx, Response::StoreConfiguration { error, spec: 0 });
+        self.send(ctx, cs::STORE_CONFIGURATION, error as u32);
         true
     }
 }
@@ -417,11 +447,6 @@ impl Lss {
 /// A part's value in the dictionary (1018h sub 1..4); 0 if not declared.
 fn part_value(od: &Od, part: Part) -> u32 {
     od.value(0x1018, part.index() + 1).unwrap_or(0)
-}
-
-/// The LSS address: 1018h sub 1..4.
-fn address(od: &Od) -> [u32; 4] {
-    Part::ALL.map(|p| part_value(od, p))
 }
 
 #[cfg(test)]
@@ -498,5 +523,161 @@ mod tests {
             Some(Response::StoreConfiguration { error: error::STORE_FAILED, spec: 0 })
         );
         assert!(!lss.store_done(&mut c, true), "nothing asked: the SDO server's store");
+    }
+
+    /// The slave as it read requests before (through [`Request::parse`], then a match on the
+    /// request): the reference `on_frame` must agree with.
+    fn reference(lss: &mut Lss, ctx: &mut Context, frame: &Frame, now: Instant) -> LssEvent {
+        if !lss.enabled {
+            return LssEvent::None;
+        }
+        let Some(request) = Request::parse(frame.payload()) else {
+            return LssEvent::None;
+        };
+        if let Request::SwitchStateGlobal(to) = request {
+            let activate = lss.switch_global(ctx, to);
+            return match lss.switch.as_mut() {
+                // During a bit-rate switch the activation waits for its end.
+                Some(s) => {
+                    s.activate |= activate;
+                    LssEvent::None
+                }
+                None if activate => LssEvent::ResetCommunication,
+                None => LssEvent::None,
+            };
+        }
+        if lss.switching() {
+            return LssEvent::None;
+        }
+        match (lss.state, request) {
+            (LssState::Waiting, Request::SwitchStateSelective { part, value }) => {
+                lss.switch_selective(ctx, part, value)
+            }
+            (_, Request::IdentifyRemoteSlave { step, value }) => lss.identify(ctx, step, value),
+            (_, Request::IdentifyNonConfiguredRemoteSlave) if lss.non_configured(ctx) => {
+                lss.send(ctx, cs::IDENTIFY_NON_CONFIGURED_SLAVE, 0)
+            }
+            (LssState::Waiting, Request::Fastscan { id, bit_checked, sub, next }) => {
+                lss.fastscan(ctx, id, bit_checked, sub, next)
+            }
+            (LssState::Configuration, Request::ConfigureNodeId(id)) => {
+                // 1..127, or FFh to make the node unconfigured (CiA 305).
+                let error = if (1..=127).contains(&id) || id == UNCONFIGURED {
+                    let pos = lss.pending_node_id;
+                    ctx.od.set(pos, id as u32);
+                    error::OK
+                } else {
+                    error::OUT_OF_RANGE
+                };
+                lss.send(ctx, cs::CONFIGURE_NODE_ID, error as u32);
+            }
+            (LssState::Configuration, Request::ConfigureBitTiming { selector, index }) => {
+                // Only the CiA table (selector 0), and only the rates the device codes: index 5
+                // (100 kbit/s, "reserved"), 8 (10 kbit/s) and 9 (automatic) have no code.
+                let code = match selector {
+                    0 => Bitrate::from_cia_index(index).and_then(|rate| code_of(lss.codes, rate)),
+                    _ => None,
+                };
+                let error = match code {
+                    Some(code) => {
+                        let pos = lss.pending_bitrate;
+                        ctx.od.set(pos, code);
+                        lss.configured_rate = Some(code);
+                        error::OK
+                    }
+                    None => error::OUT_OF_RANGE,
+                };
+                lss.send(ctx, cs::CONFIGURE_BIT_TIMING, error as u32);
+            }
+            // Not while a store waits for the shell: its answer would fall into the silence.
+            (LssState::Configuration, Request::ActivateBitTiming { delay_ms }) if !ctx.storage.saving() => {
+                let delay = Duration::from_millis(delay_ms as u64);
+                lss.switch = Some(Switch {
+                    adopt_at: now + delay,
+                    boot_at: now + delay.times(2),
+                    adopted: false,
+                    activate: false,
+                });
+                // The node leaves the bus until its boot-up on the new rate: no service sends.
+                return LssEvent::Switching;
+            }
+            // A repeated request gets the one answer when the shell is done.
+            (LssState::Configuration, Request::StoreConfiguration) if !lss.storing => {
+                if ctx.request_store(GroupMask::LSS).is_ok() {
+                    lss.storing = true;
+                } else {
+                    // A 1010h save is under way: this store cannot start.
+                    lss.send(ctx, cs::STORE_CONFIGURATION, error::STORE_FAILED as u32);
+                }
+            }
+            (LssState::Configuration, Request::InquireIdentity(part)) => {
+                let value = part_value(&ctx.od, part);
+                lss.send(ctx, cs::INQUIRE_IDENTITY + part.index(), value);
+            }
+            (LssState::Configuration, Request::InquireNodeId) => {
+                let id = ctx.node_id;
+                lss.send(ctx, cs::INQUIRE_NODE_ID, id as u32);
+            }
+            // Selective and Fastscan in configuration, configuration services in waiting, and the
+            // refused cases above.
+            _ => {}
+        }
+        LssEvent::None
+    }
+
+    proptest::proptest! {
+        /// Random frames (mostly well-formed LSS commands, in random states) get the same
+        /// answers, events, pending values and LSS state from `on_frame` as from the
+        /// reference.
+        #[test]
+        fn on_frame_reads_requests_as_parse_does(
+            frames in proptest::collection::vec(
+                (proptest::sample::select(&[
+                    0x04u8, 0x11, 0x13, 0x15, 0x17, 0x40, 0x41, 0x42, 0x43, 0x46, 0x47, 0x48, 0x49, 0x4A,
+                    0x4B, 0x4C, 0x51, 0x5A, 0x5B, 0x5C, 0x5D, 0x5E, 0x00, 0x44, 0x4F, 0x5F, 0xFF,
+                ][..]), proptest::array::uniform7(proptest::prelude::any::<u8>()), 0u8..4, 7usize..=9),
+                1..60,
+            ),
+            unconfigured in proptest::prelude::any::<bool>(),
+        ) {
+            let (mut c1, mut l1) = slave();
+            let (mut c2, mut l2) = slave();
+            if unconfigured {
+                // No node-ID, neither active nor pending: Fastscan and 4Ch answer.
+                for (c, l) in [(&mut c1, &l1), (&mut c2, &l2)] {
+                    c.node_id = UNCONFIGURED;
+                    c.od.set(l.pending_node_id, UNCONFIGURED as u32);
+                }
+            }
+            for (i, (cs, mut body, small, len)) in frames.into_iter().enumerate() {
+                // Small values where they select something: switch mode, parts, bit numbers.
+                if cs == 0x04 { body[0] = small % 3; }
+                if cs == 0x51 { body[4] = [0, 31, 32, 0x80][small as usize]; body[5] %= 5; body[6] %= 5; }
+                if cs == 0x13 { body[0] = small % 2; body[1] %= 10; }
+                if cs == 0x15 { body[1] = 0; }
+                let mut data = [cs, body[0], body[1], body[2], body[3], body[4], body[5], body[6], 0];
+                if small == 3 && cs == 0x40 { data[1..5].copy_from_slice(&part_value(&c1.od, Part::Vendor).to_le_bytes()); }
+                let frame = Frame::std(RX_ID, &data[..len]);
+                let now = Instant::from_millis(i as u64 * 7);
+                let e1 = l1.on_frame(&mut c1, &frame, now);
+                let e2 = reference(&mut l2, &mut c2, &frame, now);
+                proptest::prop_assert_eq!(e1, e2);
+                proptest::prop_assert_eq!(l1.poll(&mut c1, now), l2.poll(&mut c2, now));
+                if c1.storage.saving() {
+                    proptest::prop_assert_eq!(l1.store_done(&mut c1, true), l2.store_done(&mut c2, true));
+                    c1.storage.finish_save(&c1.od, c1.node_id, true);
+                    c2.storage.finish_save(&c2.od, c2.node_id, true);
+                }
+                loop {
+                    let (o1, o2) = (c1.out.pop(), c2.out.pop());
+                    proptest::prop_assert_eq!(o1, o2);
+                    if o1.is_none() { break; }
+                }
+                proptest::prop_assert_eq!(l1.state(), l2.state());
+                proptest::prop_assert_eq!(l1.next_deadline(), l2.next_deadline());
+                proptest::prop_assert_eq!(c1.od.get(l1.pending_node_id), c2.od.get(l2.pending_node_id));
+                proptest::prop_assert_eq!(c1.od.get(l1.pending_bitrate), c2.od.get(l2.pending_bitrate));
+            }
+        }
     }
 }

@@ -66,6 +66,7 @@ struct CanopenServices<'a> {
 }
 
 impl Services for CanopenServices<'_> {
+    #[inline(always)]
     fn write(
         &mut self,
         ctx: &mut Context,
@@ -324,8 +325,9 @@ impl<D: CanopenDevice> Node<D> {
                 let Node { ctx, device, sdo, nmt, heartbeat, guarding, pdo, lss, .. } = self;
                 let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
                 let mut access = Access { ctx, device, services: &mut services };
-                let response = sdo.on_request(frame.payload(), now, &mut access);
-                self.send_sdo(response);
+                if let Some(answer) = sdo.on_request(frame.payload(), now, &mut access) {
+                    ctx.out.send(Frame::std(0x580 + id as u16, &answer));
+                }
             }
         } else if key == 0x700 + id {
             if frame.rtr {

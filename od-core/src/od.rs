@@ -37,17 +37,29 @@ pub enum DataType {
 impl DataType {
     /// Size in bytes of a value of this type (strings: 0, their size is their content's).
     pub const fn size(self) -> usize {
-        match self {
-            DataType::Boolean | DataType::Integer8 | DataType::Unsigned8 => 1,
-            DataType::Integer16 | DataType::Unsigned16 => 2,
-            DataType::Integer32 | DataType::Unsigned32 => 4,
-            DataType::VisibleString => 0,
-        }
+        // By type code (the discriminant): BOOLEAN 1 ... UNSIGNED32 7, VISIBLE_STRING 9.
+        const SIZE: [u8; 10] = [0, 1, 1, 2, 4, 1, 2, 4, 0, 0];
+        SIZE[self as usize] as usize
     }
 
     /// Size in bits, as a PDO mapping entry gives it.
     pub const fn bits(self) -> u8 {
         (self.size() * 8) as u8
+    }
+
+    /// The raw 32-bit slot value as an unsigned number that orders as the values of this type
+    /// do: [`DataType::to_i64`] without 64-bit arithmetic (INTEGERn sign-extended with the
+    /// sign bit flipped, the others their bytes).
+    #[inline]
+    const fn order_key(self, raw: u32) -> u32 {
+        match self {
+            DataType::Integer8 => (raw as u8 as i8 as i32 as u32) ^ 0x8000_0000,
+            DataType::Integer16 => (raw as u16 as i16 as i32 as u32) ^ 0x8000_0000,
+            DataType::Integer32 => raw ^ 0x8000_0000,
+            DataType::Boolean | DataType::Unsigned8 => raw & 0xFF,
+            DataType::Unsigned16 => raw & 0xFFFF,
+            DataType::Unsigned32 | DataType::VisibleString => raw,
+        }
     }
 
     /// True for the INTEGERn types.
@@ -699,8 +711,14 @@ impl Od {
 
     /// Decodes `data` written by an SDO client to `pos` and checks access, length and
     /// limits; returns the raw value to store. Nothing is changed.
-    #[inline(always)]
     pub fn check_write(&self, pos: usize, data: &[u8]) -> Result<u32, Abort> {
+        self.check_value(pos, value_of(data), data.len())
+    }
+
+    /// [`Od::check_write`] of `len` bytes whose first four (at most) are `value`
+    /// ([`value_of`]).
+    #[inline(always)]
+    pub fn check_value(&self, pos: usize, value: u32, len: usize) -> Result<u32, Abort> {
         let e = &self.table[pos];
         if e.access == Access::PdoOnly {
             return Err(Abort::UNSUPPORTED_ACCESS);
@@ -709,21 +727,16 @@ impl Od {
             return Err(Abort::READ_ONLY);
         }
         let size = e.dtype.size();
-        if data.len() > size {
+        if len > size {
             return Err(Abort::LENGTH_HIGH);
         }
-        if data.len() < size {
+        if len < size {
             return Err(Abort::LENGTH_LOW);
         }
-        let mut raw = [0u8; 4];
-        raw[..size].copy_from_slice(data);
-        let value = u32::from_le_bytes(raw);
-        if let Some((lo, hi)) = e.limits() {
-            let v = e.dtype.to_i64(value);
-            if v < lo {
-                return Err(Abort::INVALID_VALUE);
-            }
-            if v > hi {
+        if e.flags & LIMITED != 0 {
+            let key = |raw| e.dtype.order_key(raw);
+            let v = key(value);
+            if v < key(e.word(4)) || v > key(e.word(8)) {
                 return Err(Abort::INVALID_VALUE);
             }
         }
@@ -732,6 +745,17 @@ impl Od {
         }
         Ok(value)
     }
+}
+
+/// The first four bytes of `data` (all of them if fewer) as a little-endian number, the
+/// missing high bytes zero: the raw value a write of `data` carries.
+#[inline]
+pub fn value_of(data: &[u8]) -> u32 {
+    let mut v = 0;
+    for (i, b) in data.iter().take(4).enumerate() {
+        v |= (*b as u32) << (8 * i);
+    }
+    v
 }
 
 #[cfg(test)]
@@ -850,6 +874,40 @@ mod tests {
             assert_eq!((e.kind(), e.object_type(), e.limits()), (kind, object_type, None), "{e:?}");
         }
         assert_eq!(Entry::record(0x1018, "R", 4, Access::Const).default(), Default::Value(4));
+    }
+
+    mod limits {
+        extern crate std;
+        use super::*;
+        use proptest::prelude::*;
+        use std::boxed::Box;
+
+        proptest! {
+            /// The limit check (32-bit order keys) refuses exactly the values outside the
+            /// limits read as numbers of the type, for every numeric type.
+            #[test]
+            fn limits_compare_as_numbers(t in 0usize..7, a in any::<u32>(), b in any::<u32>(), v in any::<u32>()) {
+                use DataType::*;
+                let dtype = [Boolean, Integer8, Integer16, Integer32, Unsigned8, Unsigned16, Unsigned32][t];
+                let bytes = dtype.size();
+                let cut = |x: u32| if bytes == 4 { x } else { x & ((1 << (8 * bytes)) - 1) };
+                let (a, b, v) = (cut(a), cut(b), cut(v));
+                let (lo, hi) = {
+                    let (x, y) = (dtype.to_i64(a), dtype.to_i64(b));
+                    (x.min(y), x.max(y))
+                };
+                let table: &'static [Entry] =
+                    Box::leak(Box::new([Entry::var(0x2000, "X", dtype, Access::Rw, 0).range(lo, hi)]));
+                let od = Od::new(table, 1);
+                let n = dtype.to_i64(v);
+                let expected = if n < lo || n > hi || (dtype == Boolean && v > 1) {
+                    Err(Abort::INVALID_VALUE)
+                } else {
+                    Ok(v)
+                };
+                prop_assert_eq!(od.check_write(0, &v.to_le_bytes()[..bytes]), expected);
+            }
+        }
     }
 
     #[cfg(feature = "names")]

@@ -1,15 +1,18 @@
 //! SDO server (CiA 301 §7.2.4): expedited and segmented transfers on 600h/580h + node-ID.
 //!
-//! The server is a small state machine over the requests [`crate::wire::sdo`] parses from the
-//! 8 data bytes, whatever carries them (CANopen 600h/580h, J1939 CAM21/CAM11). Every value is read
+//! The server is a small state machine over the 8 data bytes of the requests
+//! [`crate::wire::sdo`] describes, whatever carries them (CANopen 600h/580h, J1939
+//! CAM21/CAM11); it reads them and writes its answers straight as bytes (D-ARCH-8). Every value is read
 //! whole when an upload starts and written whole when a download ends, through
 //! [`ObjectAccess`], whose write is atomic: an aborted or timed-out transfer leaves the
 //! dictionary untouched. Block transfer is not offered; its command specifiers abort with
 //! 05040001h.
 
 use crate::abort::Abort;
+use crate::od::value_of;
 use crate::time::{Duration, Instant};
-use crate::wire::sdo::{ClientRequest, Initiate, ServerResponse};
+use crate::wire::sdo as wire;
+use crate::wire::{exactly_8, u16_le, u32_le};
 
 pub use crate::context::Written;
 
@@ -19,17 +22,25 @@ pub trait ObjectAccess {
     fn read_size(&mut self, index: u16, sub: u8) -> Result<usize, Abort>;
     /// Copies the value at (index, sub) into `buf` (at least `read_size` bytes); returns its size.
     fn read(&mut self, index: u16, sub: u8, buf: &mut [u8]) -> Result<usize, Abort>;
-    /// The value at (index, sub), after the access check for reading, when it is 4 bytes or
-    /// fewer: its bytes (little-endian, the rest zero) and its size; `Ok(None)` for a longer
-    /// value, which [`ObjectAccess::read`] then reads. Lets an expedited upload take one
-    /// lookup and no value buffer.
-    fn read_short(&mut self, index: u16, sub: u8) -> Result<Option<([u8; 4], usize)>, Abort> {
-        let mut buf = [0u8; MAX_VALUE];
-        let n = self.read(index, sub, &mut buf)?;
-        Ok((n <= 4).then_some(([buf[0], buf[1], buf[2], buf[3]], n)))
+    /// The value at (index, sub), after the access check for reading: its first four bytes
+    /// (little-endian, the missing ones zero) and its size; a value longer than 4 bytes is in
+    /// `buf` too. What an upload takes: one lookup, and no copy of a number.
+    fn read_value(&mut self, index: u16, sub: u8, buf: &mut [u8; MAX_VALUE]) -> Result<(u32, usize), Abort> {
+        let n = self.read(index, sub, buf)?;
+        Ok((value_of(&buf[..n.min(4)]), n))
     }
     /// Checks and writes `data` to (index, sub). Nothing changes on `Err`.
     fn write(&mut self, index: u16, sub: u8, data: &[u8], now: Instant) -> Result<Written, Abort>;
+    /// [`ObjectAccess::write`] of `len` bytes whose first four (at most) are `value`,
+    /// little-endian, the rest of `value` zero: what every download writes, without a byte
+    /// slice. No writable value is longer than 4 bytes, so the bytes past the fourth of a
+    /// longer one are not given (the default passes zeros): such a write is refused whatever
+    /// they are.
+    fn write_value(&mut self, index: u16, sub: u8, value: u32, len: usize, now: Instant) -> Result<Written, Abort> {
+        let mut data = [0u8; MAX_VALUE];
+        data[..4].copy_from_slice(&value.to_le_bytes());
+        self.write(index, sub, &data[..len.min(MAX_VALUE)], now)
+    }
     /// Size in bytes of the value at (index, sub), whatever its access: how many bytes an
     /// expedited download without size indication writes (CiA 301; issue 13 point 12,
     /// D-SDO-8). By default the readable size.
@@ -44,27 +55,36 @@ pub const MAX_VALUE: usize = 32;
 /// How long the server waits for the client's next segment (D-SDO-3).
 pub const TIMEOUT: Duration = Duration::from_secs(1);
 
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
-enum State {
-    Idle,
-    Upload,
-    Download { size: Option<usize> },
-}
+/// No segmented transfer under way.
+const IDLE: u8 = 0;
+/// A segmented upload: `buf[..len]` goes out from `pos` on.
+const UPLOAD: u8 = 1;
+/// A segmented download: the segments gather in `buf[..len]`.
+const DOWNLOAD: u8 = 2;
+
+/// [`SdoServer::size`] of a segmented download that indicated none.
+const NO_SIZE: u8 = u8::MAX;
 
 /// The SDO server's transfer state.
 #[derive(Clone)]
 pub struct SdoServer {
-    state: State,
-    index: u16,
-    sub: u8,
+    /// `IDLE`, `UPLOAD` or `DOWNLOAD`.
+    state: u8,
     toggle: bool,
-    buf: [u8; MAX_VALUE],
-    len: usize,
-    pos: usize,
-    deadline: Instant,
-    deferred: Option<(u16, u8, ServerResponse)>,
     /// Expedited transfers only (the AP10T, D-AP-21).
     expedited_only: bool,
+    /// The size a segmented download indicated (at most [`MAX_VALUE`]), or `NO_SIZE`.
+    size: u8,
+    len: u8,
+    pos: u8,
+    sub: u8,
+    index: u16,
+    /// When the client last spoke in the transfer under way: it times out [`TIMEOUT`] later.
+    spoke: Instant,
+    /// The answer a write waits to give: (index, sub) for an abort instead, and the
+    /// confirmation.
+    deferred: Option<(u16, u8, [u8; 8])>,
+    buf: [u8; MAX_VALUE],
 }
 
 impl Default for SdoServer {
@@ -75,23 +95,24 @@ impl Default for SdoServer {
 
 /// An abort transfer payload (CiA 301 §7.2.4.3.17).
 pub fn abort_frame(index: u16, sub: u8, abort: Abort) -> [u8; 8] {
-    ServerResponse::Abort { index, sub, code: abort.0 }.emit()
+    wire::with_mux(wire::ABORT, index, sub, abort.0)
 }
 
 impl SdoServer {
     /// An idle server.
     pub const fn new() -> SdoServer {
         SdoServer {
-            state: State::Idle,
-            index: 0,
-            sub: 0,
+            state: IDLE,
             toggle: false,
-            buf: [0; MAX_VALUE],
+            expedited_only: false,
+            size: NO_SIZE,
             len: 0,
             pos: 0,
-            deadline: Instant::ZERO,
+            sub: 0,
+            index: 0,
+            spoke: Instant::ZERO,
             deferred: None,
-            expedited_only: false,
+            buf: [0; MAX_VALUE],
         }
     }
 
@@ -104,237 +125,216 @@ impl SdoServer {
 
     /// Drops any transfer in progress (NMT reset, STOPPED).
     pub fn reset(&mut self) {
-        self.state = State::Idle;
+        self.state = IDLE;
         self.deferred = None;
-    }
-
-    fn fail(&mut self, index: u16, sub: u8, abort: Abort) -> Option<ServerResponse> {
-        self.state = State::Idle;
-        Some(ServerResponse::Abort { index, sub, code: abort.0 })
     }
 
     /// Handles the data bytes of a request; returns the 8-byte response, if any. Requests
     /// that are not 8 bytes long are not SDO requests (CiA 301) and are ignored (D-SDO-2).
+    ///
+    /// The request is read straight from its bytes, the answer built straight as bytes: the
+    /// [`crate::wire::sdo`] codec documents both, and its tests check this server's answers.
+    /// Every refusal takes one path: the transfer ends and the abort names the request's
+    /// (index, sub), or the transfer's for a segment.
     #[inline]
     pub fn on_request(&mut self, req: &[u8], now: Instant, dict: &mut impl ObjectAccess) -> Option<[u8; 8]> {
-        let parsed = ClientRequest::parse(req)?;
-        // An initiate download with e = 1 and s = 1 (23h, 27h, 2Bh, 2Fh).
-        let sized_expedited = req[0] & 0x03 == 0x03;
-        self.serve_with(parsed, sized_expedited, now, dict).map(|r| r.emit())
+        let d = exactly_8(req)?;
+        let cs = d[0];
+        // A segment (ccs 0 and 3) carries no multiplexer: it continues the transfer's.
+        let (index, sub) = match cs >> 5 {
+            wire::CCS_DOWNLOAD_SEGMENT | wire::CCS_UPLOAD_SEGMENT => (self.index, self.sub),
+            _ => (u16_le(d, 1), d[3]),
+        };
+        match self.serve(d, index, sub, now, dict) {
+            Ok(answer) => answer,
+            Err(abort) => {
+                self.state = IDLE;
+                Some(abort_frame(index, sub, abort))
+            }
+        }
     }
 
-    /// Serves one parsed request; returns the response, if any.
     #[inline]
-    pub fn serve(&mut self, req: ClientRequest, now: Instant, dict: &mut impl ObjectAccess) -> Option<ServerResponse> {
-        self.serve_with(req, true, now, dict)
-    }
-
-    /// [`SdoServer::serve`] knowing whether an initiate download indicated its size and was
-    /// expedited (what an expedited-only server requires).
-    #[inline]
-    fn serve_with(
+    fn serve(
         &mut self,
-        req: ClientRequest,
-        sized_expedited: bool,
+        d: &[u8; 8],
+        index: u16,
+        sub: u8,
         now: Instant,
         dict: &mut impl ObjectAccess,
-    ) -> Option<ServerResponse> {
+    ) -> Result<Option<[u8; 8]>, Abort> {
+        let cs = d[0];
+        let ccs = cs >> 5;
         // One transfer at a time: while a write's answer waits (a 1010h save for the flash, the
         // AP10T's Auto-ID for its key) a new transfer is refused, so the waiting answer is the
         // one the shell's result completes (D-SDO-10).
-        if self.deferred.is_some() {
-            if let ClientRequest::InitiateUpload { index, sub } | ClientRequest::InitiateDownload { index, sub, .. } =
-                req
-            {
-                return self.fail(index, sub, Abort::DEVICE_STATE);
-            }
+        if self.deferred.is_some() && (ccs == wire::CCS_INITIATE_DOWNLOAD || ccs == wire::CCS_INITIATE_UPLOAD) {
+            return Err(Abort::DEVICE_STATE);
         }
-        match req {
-            ClientRequest::InitiateUpload { index, sub } => {
-                self.state = State::Idle;
-                self.upload(index, sub, now, dict)
+        // A download's value: (value, its length, the confirmation); every other request is
+        // answered here.
+        let (value, len, confirm) = match ccs {
+            wire::CCS_INITIATE_DOWNLOAD => {
+                self.state = IDLE;
+                let confirm = wire::with_mux(wire::DOWNLOAD_INITIATED, index, sub, 0);
+                if cs & wire::EXPEDITED == 0 {
+                    return self.initiate_segmented(d, index, sub, now).map(|()| Some(confirm));
+                }
+                let len = if cs & wire::SIZED != 0 {
+                    wire::expedited_len(cs)
+                } else if self.expedited_only {
+                    return Err(Abort::INVALID_COMMAND);
+                } else {
+                    // Without a size indication (22h) the object's size applies (CiA 301,
+                    // D-SDO-8); 4 bytes where the dictionary names none (its write then answers
+                    // the abort).
+                    dict.write_size(index, sub).ok().filter(|n| (1..=4).contains(n)).unwrap_or(4)
+                };
+                (u32_le(d, 4) & wire::mask(len), len, confirm)
             }
-            ClientRequest::InitiateDownload { index, sub, .. } if self.expedited_only && !sized_expedited => {
-                self.fail(index, sub, Abort::INVALID_COMMAND)
-            }
-            ClientRequest::InitiateDownload { index, sub, kind } => {
-                self.state = State::Idle;
-                self.initiate_download(index, sub, kind, now, dict)
-            }
-            ClientRequest::UploadSegment { toggle } => match self.state {
-                State::Upload => self.upload_segment(toggle, now),
-                _ => self.fail(self.index, self.sub, Abort::INVALID_COMMAND),
+            wire::CCS_DOWNLOAD_SEGMENT if self.state == DOWNLOAD => match self.download_segment(d, now)? {
+                Ok(whole) => whole,
+                Err(confirm) => return Ok(Some(confirm)),
             },
-            ClientRequest::DownloadSegment { toggle, data, len, last } => match self.state {
-                State::Download { size } => self.download_segment(toggle, &data, len, last, size, now, dict),
-                _ => self.fail(self.index, self.sub, Abort::INVALID_COMMAND),
-            },
+            wire::CCS_INITIATE_UPLOAD => {
+                self.state = IDLE;
+                return self.upload(index, sub, now, dict).map(Some);
+            }
+            wire::CCS_UPLOAD_SEGMENT if self.state == UPLOAD => return self.upload_segment(cs, now).map(Some),
             // Abort from the client: the transfer ends without an answer.
-            ClientRequest::Abort { .. } => {
-                self.state = State::Idle;
-                None
+            wire::CCS_ABORT => {
+                self.state = IDLE;
+                return Ok(None);
             }
-            // Block upload/download and the reserved command.
-            ClientRequest::Unsupported { index, sub, .. } => self.fail(index, sub, Abort::INVALID_COMMAND),
+            // A segment outside its transfer, block upload/download and the reserved command.
+            _ => return Err(Abort::INVALID_COMMAND),
+        };
+        // The one write: an expedited download's, or a segmented one's after its last segment.
+        match dict.write_value(index, sub, value, len, now)? {
+            Written::Done => Ok(Some(confirm)),
+            Written::Deferred => {
+                self.deferred = Some((index, sub, confirm));
+                Ok(None)
+            }
         }
+    }
+
+    /// An initiate segmented download (e = 0): the transfer begins, unless the server takes
+    /// expedited ones only or the size indicated is more than any value holds.
+    fn initiate_segmented(&mut self, d: &[u8; 8], index: u16, sub: u8, now: Instant) -> Result<(), Abort> {
+        if self.expedited_only {
+            return Err(Abort::INVALID_COMMAND);
+        }
+        let size = match d[0] & wire::SIZED {
+            0 => NO_SIZE,
+            _ => match u32_le(d, 4) {
+                s if s > MAX_VALUE as u32 => return Err(Abort::LENGTH_HIGH),
+                s => s as u8,
+            },
+        };
+        self.begin(DOWNLOAD, index, sub, now);
+        self.size = size;
+        Ok(())
     }
 
     #[inline]
-    fn upload(&mut self, index: u16, sub: u8, now: Instant, dict: &mut impl ObjectAccess) -> Option<ServerResponse> {
-        // A value of 4 bytes or fewer goes out expedited after one lookup; a longer one is
-        // read whole and sent segmented.
-        match dict.read_short(index, sub) {
-            Ok(Some((data, n))) => return Some(ServerResponse::UploadExpedited { index, sub, data, len: n as u8 }),
-            Ok(None) => {}
-            Err(abort) => return self.fail(index, sub, abort),
+    fn upload(&mut self, index: u16, sub: u8, now: Instant, dict: &mut impl ObjectAccess) -> Result<[u8; 8], Abort> {
+        // A value of 4 bytes or fewer goes out expedited; a longer one is read whole and sent
+        // segmented.
+        let (value, mut n) = dict.read_value(index, sub, &mut self.buf)?;
+        if self.expedited_only {
+            n = n.min(4);
         }
-        let mut value = [0u8; MAX_VALUE];
-        let n = match dict.read(index, sub, &mut value) {
-            Ok(n) if self.expedited_only => n.min(4),
-            Ok(n) => n,
-            Err(abort) => return self.fail(index, sub, abort),
-        };
         if n <= 4 {
-            let data = [value[0], value[1], value[2], value[3]];
-            return Some(ServerResponse::UploadExpedited { index, sub, data, len: n as u8 });
+            return Ok(wire::upload_expedited(index, sub, value, n));
         }
-        self.begin(State::Upload, index, sub, now);
-        self.buf = value;
-        self.len = n;
-        Some(ServerResponse::UploadSegmented { index, sub, size: n as u32 })
+        self.begin(UPLOAD, index, sub, now);
+        self.len = n as u8;
+        Ok(wire::with_mux(wire::UPLOAD_SEGMENTED, index, sub, n as u32))
     }
 
-    fn upload_segment(&mut self, toggle: bool, now: Instant) -> Option<ServerResponse> {
-        if toggle != self.toggle {
-            return self.fail(self.index, self.sub, Abort::TOGGLE);
-        }
-        let n = (self.len - self.pos).min(7);
-        let mut data = [0u8; 7];
-        data[..n].copy_from_slice(&self.buf[self.pos..self.pos + n]);
-        self.pos += n;
-        let last = self.pos == self.len;
-        self.toggle = !self.toggle;
-        self.deadline = now + TIMEOUT;
+    fn upload_segment(&mut self, cs: u8, now: Instant) -> Result<[u8; 8], Abort> {
+        let toggle = cs & wire::TOGGLE;
+        self.step_toggle(toggle, now)?;
+        let (pos, len) = (self.pos as usize, self.len as usize);
+        let n = (len - pos).min(7);
+        let mut out = [0u8; 8];
+        out[1..1 + n].copy_from_slice(&self.buf[pos..pos + n]);
+        self.pos += n as u8;
+        let last = pos + n == len;
         if last {
-            self.state = State::Idle;
+            self.state = IDLE;
         }
-        Some(ServerResponse::UploadSegment { toggle, data, len: n as u8, last })
+        out[0] = toggle | ((7 - n as u8) << 1) | last as u8;
+        Ok(out)
     }
 
-    fn initiate_download(
-        &mut self,
-        index: u16,
-        sub: u8,
-        kind: Initiate,
-        now: Instant,
-        dict: &mut impl ObjectAccess,
-    ) -> Option<ServerResponse> {
-        let size = match kind {
-            Initiate::Expedited { data, len } => return self.write(index, sub, &data[..len as usize], now, dict),
-            // Without a size indication (22h) the object's size applies (CiA 301, D-SDO-8);
-            // 4 bytes where the dictionary names none (its write then answers the abort).
-            Initiate::ExpeditedUnsized { data } => {
-                let n = dict.write_size(index, sub).ok().filter(|n| (1..=4).contains(n)).unwrap_or(4);
-                return self.write(index, sub, &data[..n], now, dict);
-            }
-            Initiate::Segmented { size } => size.map(|s| s as usize),
-        };
-        if size.is_some_and(|s| s > MAX_VALUE) {
-            return self.fail(index, sub, Abort::LENGTH_HIGH);
+    /// A download segment: its bytes join the value. `Ok(Err(confirm))` while more follow;
+    /// after the last one, `Ok(Ok((value, len, confirm)))` to write.
+    #[allow(clippy::type_complexity)]
+    fn download_segment(&mut self, d: &[u8; 8], now: Instant) -> Result<Result<(u32, usize, [u8; 8]), [u8; 8]>, Abort> {
+        let cs = d[0];
+        let toggle = cs & wire::TOGGLE;
+        self.step_toggle(toggle, now)?;
+        let n = 7 - ((cs >> 1) & 0x07) as usize;
+        let len = self.len as usize;
+        if len + n > MAX_VALUE {
+            return Err(Abort::LENGTH_HIGH);
         }
-        self.begin(State::Download { size }, index, sub, now);
-        Some(ServerResponse::DownloadInitiated { index, sub })
+        self.buf[len..len + n].copy_from_slice(&d[1..1 + n]);
+        let len = len + n;
+        self.len = len as u8;
+        let confirm = [wire::DOWNLOAD_SEGMENT | toggle, 0, 0, 0, 0, 0, 0, 0];
+        if cs & wire::LAST == 0 {
+            return Ok(Err(confirm));
+        }
+        self.state = IDLE;
+        if self.size != NO_SIZE && self.size as usize != len {
+            return Err(Abort::LENGTH_MISMATCH);
+        }
+        Ok(Ok((value_of(&self.buf[..len]), len, confirm)))
     }
 
-    #[allow(clippy::too_many_arguments)]
-    fn download_segment(
-        &mut self,
-        toggle: bool,
-        data: &[u8; 7],
-        n: u8,
-        last: bool,
-        size: Option<usize>,
-        now: Instant,
-        dict: &mut impl ObjectAccess,
-    ) -> Option<ServerResponse> {
-        if toggle != self.toggle {
-            return self.fail(self.index, self.sub, Abort::TOGGLE);
+    /// A segment with toggle bit `toggle` (its bit in the command byte): the one expected, or
+    /// the toggle abort. The next one must alternate, within [`TIMEOUT`].
+    fn step_toggle(&mut self, toggle: u8, now: Instant) -> Result<(), Abort> {
+        if (toggle != 0) != self.toggle {
+            return Err(Abort::TOGGLE);
         }
-        let n = n as usize;
-        if self.len + n > MAX_VALUE {
-            return self.fail(self.index, self.sub, Abort::LENGTH_HIGH);
-        }
-        self.buf[self.len..self.len + n].copy_from_slice(&data[..n]);
-        self.len += n;
         self.toggle = !self.toggle;
-        self.deadline = now + TIMEOUT;
-        let confirm = ServerResponse::DownloadSegment { toggle };
-        if !last {
-            return Some(confirm);
-        }
-        self.state = State::Idle;
-        if size.is_some_and(|s| s != self.len) {
-            return self.fail(self.index, self.sub, Abort::LENGTH_MISMATCH);
-        }
-        let (index, sub, len) = (self.index, self.sub, self.len);
-        let value = self.buf;
-        match dict.write(index, sub, &value[..len], now) {
-            Ok(Written::Done) => Some(confirm),
-            Ok(Written::Deferred) => {
-                self.deferred = Some((index, sub, confirm));
-                None
-            }
-            Err(abort) => self.fail(index, sub, abort),
-        }
+        self.spoke = now;
+        Ok(())
     }
 
-    fn write(
-        &mut self,
-        index: u16,
-        sub: u8,
-        data: &[u8],
-        now: Instant,
-        dict: &mut impl ObjectAccess,
-    ) -> Option<ServerResponse> {
-        let confirm = ServerResponse::DownloadInitiated { index, sub };
-        match dict.write(index, sub, data, now) {
-            Ok(Written::Done) => Some(confirm),
-            Ok(Written::Deferred) => {
-                self.deferred = Some((index, sub, confirm));
-                None
-            }
-            Err(abort) => self.fail(index, sub, abort),
-        }
-    }
-
-    fn begin(&mut self, state: State, index: u16, sub: u8, now: Instant) {
+    fn begin(&mut self, state: u8, index: u16, sub: u8, now: Instant) {
         self.state = state;
         self.index = index;
         self.sub = sub;
         self.toggle = false;
         self.len = 0;
         self.pos = 0;
-        self.deadline = now + TIMEOUT;
+        self.spoke = now;
     }
 
     /// Aborts a transfer whose client fell silent; returns the abort frame payload.
     pub fn poll(&mut self, now: Instant) -> Option<[u8; 8]> {
-        if self.state != State::Idle && now >= self.deadline {
-            return self.fail(self.index, self.sub, Abort::TIMEOUT).map(|r| r.emit());
+        if self.state != IDLE && now >= self.spoke + TIMEOUT {
+            self.state = IDLE;
+            return Some(abort_frame(self.index, self.sub, Abort::TIMEOUT));
         }
         None
     }
 
     /// When [`SdoServer::poll`] must next run.
     pub fn next_deadline(&self) -> Option<Instant> {
-        (self.state != State::Idle).then_some(self.deadline)
+        (self.state != IDLE).then_some(self.spoke + TIMEOUT)
     }
 
     /// The deferred write finished; returns the response to send.
     pub fn complete_deferred(&mut self, result: Result<(), Abort>) -> Option<[u8; 8]> {
         let (index, sub, done) = self.deferred.take()?;
         Some(match result {
-            Ok(()) => done.emit(),
+            Ok(()) => done,
             Err(abort) => abort_frame(index, sub, abort),
         })
     }

@@ -135,6 +135,26 @@ impl IdentifyStep {
         self as u8
     }
 
+    /// The part of the LSS address the step compares.
+    pub const fn part(self) -> Part {
+        match self {
+            IdentifyStep::Vendor => Part::Vendor,
+            IdentifyStep::Product => Part::Product,
+            IdentifyStep::RevisionLow | IdentifyStep::RevisionHigh => Part::Revision,
+            IdentifyStep::SerialLow | IdentifyStep::SerialHigh => Part::Serial,
+        }
+    }
+
+    /// Does a slave whose address part [`IdentifyStep::part`] is `own` pass this step for
+    /// `value`: equal vendor and product, revision and serial within the bounds?
+    pub const fn passes(self, own: u32, value: u32) -> bool {
+        match self {
+            IdentifyStep::Vendor | IdentifyStep::Product => own == value,
+            IdentifyStep::RevisionLow | IdentifyStep::SerialLow => own >= value,
+            IdentifyStep::RevisionHigh | IdentifyStep::SerialHigh => own <= value,
+        }
+    }
+
     /// Does the slave whose LSS address is `address` pass this step for `value`?
     pub fn matches(self, address: &[u32; 4], value: u32) -> bool {
         match self {
@@ -210,6 +230,14 @@ fn u32_at(data: &[u8; 8]) -> u32 {
 /// An LSS message: the command specifier, then 7 bytes (reserved ones 00h).
 fn lss_bytes(cs: u8, body: [u8; 7]) -> [u8; 8] {
     [cs, body[0], body[1], body[2], body[3], body[4], body[5], body[6]]
+}
+
+/// A slave's message: command specifier `cs`, bytes 1..=4 `tail` little-endian (a value, or
+/// the error code in byte 1 and the implementation-specific error in byte 2), the rest 00h:
+/// the shape of every [`Response`].
+#[inline]
+pub const fn response(cs: u8, tail: u32) -> [u8; 8] {
+    (cs as u64 | (tail as u64) << 8).to_le_bytes()
 }
 
 /// Bytes 1..=7 holding `value` little-endian in bytes 1..=4.
@@ -335,17 +363,18 @@ pub enum Response {
 impl Response {
     /// The data bytes the slave sends (reserved bytes 00h).
     pub fn emit(&self) -> [u8; 8] {
-        let (c, body) = match *self {
-            Response::SwitchStateSelective => (cs::SWITCH_STATE_SELECTIVE_RESPONSE, [0; 7]),
-            Response::ConfigureNodeId { error, spec } => (cs::CONFIGURE_NODE_ID, [error, spec, 0, 0, 0, 0, 0]),
-            Response::ConfigureBitTiming { error, spec } => (cs::CONFIGURE_BIT_TIMING, [error, spec, 0, 0, 0, 0, 0]),
-            Response::StoreConfiguration { error, spec } => (cs::STORE_CONFIGURATION, [error, spec, 0, 0, 0, 0, 0]),
-            Response::IdentifySlave => (cs::IDENTIFY_SLAVE, [0; 7]),
-            Response::IdentifyNonConfiguredSlave => (cs::IDENTIFY_NON_CONFIGURED_SLAVE, [0; 7]),
-            Response::InquireIdentity { part, value } => (cs::INQUIRE_IDENTITY + part.index(), u32_body(value)),
-            Response::InquireNodeId(id) => (cs::INQUIRE_NODE_ID, [id, 0, 0, 0, 0, 0, 0]),
+        let error = |error: u8, spec: u8| error as u32 | (spec as u32) << 8;
+        let (c, tail) = match *self {
+            Response::SwitchStateSelective => (cs::SWITCH_STATE_SELECTIVE_RESPONSE, 0),
+            Response::ConfigureNodeId { error: e, spec } => (cs::CONFIGURE_NODE_ID, error(e, spec)),
+            Response::ConfigureBitTiming { error: e, spec } => (cs::CONFIGURE_BIT_TIMING, error(e, spec)),
+            Response::StoreConfiguration { error: e, spec } => (cs::STORE_CONFIGURATION, error(e, spec)),
+            Response::IdentifySlave => (cs::IDENTIFY_SLAVE, 0),
+            Response::IdentifyNonConfiguredSlave => (cs::IDENTIFY_NON_CONFIGURED_SLAVE, 0),
+            Response::InquireIdentity { part, value } => (cs::INQUIRE_IDENTITY + part.index(), value),
+            Response::InquireNodeId(id) => (cs::INQUIRE_NODE_ID, id as u32),
         };
-        lss_bytes(c, body)
+        response(c, tail)
     }
 
     /// Parses the data bytes of a slave's message (7E4h, what a master reads); `None` for a
@@ -499,6 +528,14 @@ mod tests {
     }
 
     proptest! {
+        /// A step judged on its own part of the address judges as on the whole address.
+        #[test]
+        fn a_step_passes_on_its_part_as_on_the_address(step in 0u8..6, address in any::<[u32; 4]>(), value in any::<u32>()) {
+            let step = IdentifyStep::from_index(step).unwrap();
+            prop_assert_eq!(step.passes(address[step.part().index() as usize], value), step.matches(&address, value));
+            prop_assert_eq!(step.passes(value, value), step.matches(&[value; 4], value));
+        }
+
         #[test]
         fn requests_round_trip(r in request()) {
             prop_assert_eq!(Request::parse(&r.emit()), Some(r));

@@ -144,7 +144,76 @@ pub enum ServerResponse {
     },
 }
 
-const TOGGLE: u8 = 0x10;
+/// ccs 0: download segment.
+pub const CCS_DOWNLOAD_SEGMENT: u8 = 0;
+/// ccs 1: initiate download.
+pub const CCS_INITIATE_DOWNLOAD: u8 = 1;
+/// ccs 2: initiate upload.
+pub const CCS_INITIATE_UPLOAD: u8 = 2;
+/// ccs 3: upload segment.
+pub const CCS_UPLOAD_SEGMENT: u8 = 3;
+/// ccs 4: abort transfer.
+pub const CCS_ABORT: u8 = 4;
+
+/// Initiate download, command byte: e, the value is in bytes 4..7.
+pub const EXPEDITED: u8 = 0x02;
+/// Initiate download, command byte: s, the size is indicated.
+pub const SIZED: u8 = 0x01;
+/// Segment command byte: t, the toggle bit.
+pub const TOGGLE: u8 = 0x10;
+/// Segment command byte: c, no more segments.
+pub const LAST: u8 = 0x01;
+
+/// Server command byte of [`ServerResponse::DownloadInitiated`].
+pub const DOWNLOAD_INITIATED: u8 = 0x60;
+/// Server command byte of [`ServerResponse::UploadSegmented`] (s = 1).
+pub const UPLOAD_SEGMENTED: u8 = 0x41;
+/// Server command byte of [`ServerResponse::DownloadSegment`], without its toggle bit.
+pub const DOWNLOAD_SEGMENT: u8 = 0x20;
+/// Command byte of an abort transfer.
+pub const ABORT: u8 = 0x80;
+
+/// A message of a command byte, the multiplexer and four bytes `tail` (little-endian): every
+/// initiate message and the abort.
+#[inline]
+pub const fn with_mux(cs: u8, index: u16, sub: u8, tail: u32) -> [u8; 8] {
+    (cs as u64 | (index as u64) << 8 | (sub as u64) << 24 | (tail as u64) << 32).to_le_bytes()
+}
+
+/// How many bytes of an expedited initiate download with size indicated (command byte `cs`)
+/// are valid: 4 - n, 1..=4.
+#[inline]
+pub const fn expedited_len(cs: u8) -> usize {
+    4 - ((cs >> 2) & 0x03) as usize
+}
+
+/// The mask of the first `len` bytes (1..=4; 0 counts as 1, as an expedited message has at
+/// least one) of a little-endian u32.
+#[inline]
+pub const fn mask(len: usize) -> u32 {
+    let len = if len == 0 {
+        1
+    } else if len > 4 {
+        4
+    } else {
+        len
+    };
+    u32::MAX >> (8 * (4 - len as u32))
+}
+
+/// [`ServerResponse::UploadExpedited`] of the first `len` bytes (1..=4; 0 counts as 1) of
+/// `value`, little-endian.
+#[inline]
+pub const fn upload_expedited(index: u16, sub: u8, value: u32, len: usize) -> [u8; 8] {
+    let len = if len == 0 {
+        1
+    } else if len > 4 {
+        4
+    } else {
+        len
+    };
+    with_mux(0x43 | ((4 - len as u8) << 2), index, sub, value & mask(len))
+}
 
 #[inline]
 fn mux(d: &[u8; 8]) -> (u16, u8) {
@@ -152,9 +221,8 @@ fn mux(d: &[u8; 8]) -> (u16, u8) {
 }
 
 #[inline]
-fn with_mux(cs: u8, index: u16, sub: u8, tail: [u8; 4]) -> [u8; 8] {
-    let i = index.to_le_bytes();
-    [cs, i[0], i[1], sub, tail[0], tail[1], tail[2], tail[3]]
+fn mux_and(cs: u8, index: u16, sub: u8, tail: [u8; 4]) -> [u8; 8] {
+    with_mux(cs, index, sub, u32::from_le_bytes(tail))
 }
 
 fn segment(cs: u8, data: &[u8; 7], len: u8) -> [u8; 8] {
@@ -217,17 +285,17 @@ impl ClientRequest {
     #[inline]
     pub fn emit(&self) -> [u8; 8] {
         match *self {
-            ClientRequest::InitiateUpload { index, sub } => with_mux(0x40, index, sub, [0; 4]),
+            ClientRequest::InitiateUpload { index, sub } => mux_and(0x40, index, sub, [0; 4]),
             ClientRequest::InitiateDownload { index, sub, kind: Initiate::Expedited { data, len } } => {
                 let len = len.clamp(1, 4);
-                with_mux(0x23 | ((4 - len) << 2), index, sub, expedited_tail(data, len))
+                mux_and(0x23 | ((4 - len) << 2), index, sub, expedited_tail(data, len))
             }
             ClientRequest::InitiateDownload { index, sub, kind: Initiate::ExpeditedUnsized { data } } => {
-                with_mux(0x22, index, sub, data)
+                mux_and(0x22, index, sub, data)
             }
             ClientRequest::InitiateDownload { index, sub, kind: Initiate::Segmented { size } } => match size {
-                Some(s) => with_mux(0x21, index, sub, s.to_le_bytes()),
-                None => with_mux(0x20, index, sub, [0; 4]),
+                Some(s) => mux_and(0x21, index, sub, s.to_le_bytes()),
+                None => mux_and(0x20, index, sub, [0; 4]),
             },
             ClientRequest::UploadSegment { toggle } => [0x60 | if toggle { TOGGLE } else { 0 }, 0, 0, 0, 0, 0, 0, 0],
             ClientRequest::DownloadSegment { toggle, data, len, last } => {
@@ -235,8 +303,8 @@ impl ClientRequest {
                 let cs = if toggle { TOGGLE } else { 0 } | ((7 - len) << 1) | last as u8;
                 segment(cs, &data, len)
             }
-            ClientRequest::Abort { index, sub, code } => with_mux(0x80, index, sub, code.to_le_bytes()),
-            ClientRequest::Unsupported { ccs, index, sub } => with_mux((ccs.clamp(5, 7)) << 5, index, sub, [0; 4]),
+            ClientRequest::Abort { index, sub, code } => mux_and(0x80, index, sub, code.to_le_bytes()),
+            ClientRequest::Unsupported { ccs, index, sub } => mux_and((ccs.clamp(5, 7)) << 5, index, sub, [0; 4]),
         }
     }
 }
@@ -248,12 +316,11 @@ impl ServerResponse {
         // Every response but the segments is a command byte, the multiplexer and four bytes.
         let (cs, index, sub, tail) = match *self {
             ServerResponse::UploadExpedited { index, sub, data, len } => {
-                let len = len.clamp(1, 4);
-                (0x43 | ((4 - len) << 2), index, sub, u32::from_le_bytes(expedited_tail(data, len)))
+                return upload_expedited(index, sub, u32::from_le_bytes(data), len as usize);
             }
-            ServerResponse::UploadSegmented { index, sub, size } => (0x41, index, sub, size),
-            ServerResponse::DownloadInitiated { index, sub } => (0x60, index, sub, 0),
-            ServerResponse::Abort { index, sub, code } => (0x80, index, sub, code),
+            ServerResponse::UploadSegmented { index, sub, size } => (UPLOAD_SEGMENTED, index, sub, size),
+            ServerResponse::DownloadInitiated { index, sub } => (DOWNLOAD_INITIATED, index, sub, 0),
+            ServerResponse::Abort { index, sub, code } => (ABORT, index, sub, code),
             ServerResponse::UploadSegment { toggle, data, len, last } => {
                 let len = len.min(7);
                 let cs = if toggle { TOGGLE } else { 0 } | ((7 - len) << 1) | last as u8;
@@ -263,7 +330,7 @@ impl ServerResponse {
                 return [0x20 | if toggle { TOGGLE } else { 0 }, 0, 0, 0, 0, 0, 0, 0];
             }
         };
-        (cs as u64 | (index as u64) << 8 | (sub as u64) << 24 | (tail as u64) << 32).to_le_bytes()
+        with_mux(cs, index, sub, tail)
     }
 
     /// Parses the data bytes of a response (what a client reads); `None` unless there are
