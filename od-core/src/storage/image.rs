@@ -220,37 +220,40 @@ impl Image {
 
     /// Adds or replaces the record with `rec`'s key.
     pub fn set(&mut self, rec: Record) -> Result<(), Full> {
-        match self.records.binary_search_by(|r| r.key().cmp(&rec.key())) {
-            Ok(i) => {
-                self.records[i] = rec;
-                Ok(())
-            }
-            Err(i) => {
-                // Appended, then moved down into place one swap at a time: `Vec::insert`'s
-                // overlapping copy would link a 1.6 KiB `memmove` into the firmware.
-                self.records.push(rec).map_err(|_| Full)?;
-                let mut at = self.records.len() - 1;
-                while at > i {
-                    let (low, high) = self.records.split_at_mut(at);
-                    core::mem::swap(&mut low[at - 1], &mut high[0]);
-                    at -= 1;
-                }
-                Ok(())
-            }
-        }
+        self.update(rec, false)
     }
 
     /// Removes the record for (index, sub), if any.
     pub fn remove(&mut self, index: u16, sub: u8) {
-        if let Ok(mut at) = self.records.binary_search_by(|r| r.key().cmp(&(index, sub))) {
-            // Moved up to the end one swap at a time, then dropped (no `memmove`, as in `set`).
-            while at + 1 < self.records.len() {
-                let (low, high) = self.records.split_at_mut(at + 1);
-                core::mem::swap(&mut low[at], &mut high[0]);
-                at += 1;
+        let _ = self.update(Record::removal(index, sub), true);
+    }
+
+    /// Sets `rec`, or with `remove` removes its key. Records move one swap at a time:
+    /// `Vec::insert`'s overlapping copy would link a 1.6 KiB `memmove` into the firmware.
+    pub(crate) fn update(&mut self, rec: Record, remove: bool) -> Result<(), Full> {
+        let v = &mut self.records;
+        match v.binary_search_by(|r| r.key().cmp(&rec.key())) {
+            Ok(i) if !remove => v[i] = rec,
+            Ok(mut i) => {
+                // Moved up to the end, then dropped.
+                while i + 1 < v.len() {
+                    v.swap(i, i + 1);
+                    i += 1;
+                }
+                v.pop();
             }
-            self.records.pop();
+            Err(_) if remove => {}
+            Err(i) => {
+                // Appended, then moved down into place.
+                v.push(rec).map_err(|_| Full)?;
+                let mut at = v.len() - 1;
+                while at > i {
+                    v.swap(at - 1, at);
+                    at -= 1;
+                }
+            }
         }
+        Ok(())
     }
 
     /// Makes this image a copy of `other` (copying only the records it holds).
@@ -268,7 +271,12 @@ impl Image {
     /// Appends a record read from a slot; false unless keys strictly increase and there is room.
     pub(crate) fn push_sorted(&mut self, rec: Record) -> bool {
         let ordered = self.records.last().is_none_or(|l| l.key() < rec.key());
-        ordered && self.records.push(rec).is_ok()
+        ordered && self.push(rec).is_ok()
+    }
+
+    /// Appends a record whose key is above every key held.
+    pub(crate) fn push(&mut self, rec: Record) -> Result<(), Full> {
+        self.records.push(rec).map_err(|_| Full)
     }
 
     /// Bytes 8..32 of the slot that holds this image: magic, version, count, identity,

@@ -360,8 +360,6 @@ pub(crate) fn merge_into(
     node_id: u8,
     mask: GroupMask,
 ) -> Result<usize, image::Full> {
-    let groups = mask.0 & USER_GROUPS;
-    let by_hook = mask.0 & BY_HOOK != 0;
     let table = od.table();
     let (mut i, mut changed) = (0, 0);
     for (w, &word) in storable.bits.iter().enumerate() {
@@ -371,32 +369,41 @@ pub(crate) fn merge_into(
             bits &= bits - 1;
             let Some(e) = table.get(pos) else { continue };
             let k = key(e.index, e.sub);
-            // Records of keys the dictionary does not declare, or does not store, are passed
-            // over: dropped.
-            while let Some(r) = olds.get(i).filter(|r| key(r.index, r.sub) < k) {
-                let _ = log.push(Record::removal(r.index, r.sub));
+            let mut stored = None;
+            while let Some(r) = olds.get(i) {
+                let rk = key(r.index, r.sub);
+                if rk > k {
+                    break;
+                }
                 i += 1;
+                if rk == k {
+                    stored = Some(r);
+                    break;
+                }
+                // A record of a key the dictionary does not declare, or does not store: dropped.
+                let _ = log.push(Record::removal(r.index, r.sub));
                 changed += 1;
             }
-            let stored = olds.get(i).filter(|r| key(r.index, r.sub) == k);
-            i += usize::from(stored.is_some());
-            let bit = e.group.bit();
-            let take = bit & groups != 0
-                || (by_hook && selected(e, mask))
-                || (e.group == Group::Factory && !stored.is_some_and(|r| r.fits(e)));
-            let record = if take {
-                let value = od.get(pos);
-                (value != e.default_value(node_id)).then(|| Record::of(e, value))
-            } else {
-                stored.filter(|r| r.fits(e)).copied()
+            // The value the image keeps for the entry, if any.
+            let take = e.group.bit() & mask.0 & USER_GROUPS != 0 || (mask.0 & BY_HOOK != 0 && selected(e, mask));
+            let (value, keep) = match stored {
+                Some(r) if !take && (e.group != Group::Factory || r.fits(e)) => (r.value, r.fits(e)),
+                _ if take || e.group == Group::Factory => {
+                    let value = od.get(pos);
+                    (value, value != e.default_value(node_id))
+                }
+                _ => (0, false),
             };
-            if record.as_ref() != stored {
-                let _ = log.push(record.unwrap_or(Record::removal(e.index, e.sub)));
-                changed += 1;
-            }
-            if let Some(r) = record {
-                if !new.push_sorted(r) {
-                    return Err(image::Full);
+            match (keep, stored) {
+                (false, None) => {}
+                (true, Some(r)) if *r == Record::of(e, value) => new.push(*r)?,
+                _ => {
+                    let record = if keep { Record::of(e, value) } else { Record::removal(e.index, e.sub) };
+                    let _ = log.push(record);
+                    changed += 1;
+                    if keep {
+                        new.push(record)?;
+                    }
                 }
             }
         }
