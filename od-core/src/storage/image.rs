@@ -208,9 +208,22 @@ impl Image {
         self.records.is_empty()
     }
 
+    /// Where the record for (index, sub) is (`Ok`) or would go (`Err`): a linear search,
+    /// smaller than a binary one, and an image holds a few dozen records at most.
+    fn find(&self, index: u16, sub: u8) -> Result<usize, usize> {
+        let key = super::key(index, sub);
+        for (i, r) in self.records.iter().enumerate() {
+            let k = super::key(r.index, r.sub);
+            if k >= key {
+                return if k == key { Ok(i) } else { Err(i) };
+            }
+        }
+        Err(self.records.len())
+    }
+
     /// The record for (index, sub), if any.
     pub fn get(&self, index: u16, sub: u8) -> Option<&Record> {
-        self.records.binary_search_by(|r| r.key().cmp(&(index, sub))).ok().map(|i| &self.records[i])
+        self.find(index, sub).ok().map(|i| &self.records[i])
     }
 
     /// The value this image gives entry `e`, if it holds a record that fits it.
@@ -230,9 +243,11 @@ impl Image {
 
     /// Sets `rec`, or with `remove` removes its key. Records move one swap at a time:
     /// `Vec::insert`'s overlapping copy would link a 1.6 KiB `memmove` into the firmware.
+    #[inline(never)]
     pub(crate) fn update(&mut self, rec: Record, remove: bool) -> Result<(), Full> {
+        let found = self.find(rec.index, rec.sub);
         let v = &mut self.records;
-        match v.binary_search_by(|r| r.key().cmp(&rec.key())) {
+        match found {
             Ok(i) if !remove => v[i] = rec,
             Ok(mut i) => {
                 // Moved up to the end, then dropped.
