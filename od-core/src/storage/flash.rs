@@ -25,6 +25,7 @@
 
 use embedded_storage::nor_flash::NorFlash;
 
+use super::crc::Crc32;
 use super::image::{self, DecodeError, Image, Record, Slot, COMMIT, COMMIT_SIZE, HEADER_SIZE, UNIT};
 use super::{merge_into, Loaded, Log, Parameters, Storable};
 use crate::od::GroupMask;
@@ -285,14 +286,14 @@ impl<F: NorFlash> ParamFlash<F> {
         let base = self.page(n);
         self.flash.erase(base, base + F::ERASE_SIZE as u32).map_err(SaveError::Flash)?;
         // Each unit read back as it is written: a page that does not hold what was written
-        // never gets its commit marker.
-        let mut at = base + HEADER_SIZE as u32;
-        for r in image.records() {
-            self.program(at, &r.encode())?;
-            at += UNIT as u32;
-        }
+        // never gets its commit marker. The header's CRC covers its first 20 bytes and the records.
+        let mut header = image::head(image.len(), self.identity, sequence);
+        let mut crc = Crc32::new();
+        crc.update(&header[..20]);
+        let crc = self.program_records(base + HEADER_SIZE as u32, image.records(), crc)?;
+        header[20..].copy_from_slice(&crc.finish().to_le_bytes());
         let mut at = base + COMMIT_SIZE as u32;
-        for unit in image.header(self.identity, sequence).as_chunks::<UNIT>().0 {
+        for unit in header.as_chunks::<UNIT>().0 {
             self.program(at, unit)?;
             at += UNIT as u32;
         }
@@ -310,19 +311,30 @@ impl<F: NorFlash> ParamFlash<F> {
     fn append(&mut self, log: &Log, image: &Image) -> Result<(), SaveError<F::Error>> {
         let (page, sequence) = self.last.unwrap_or_default();
         let base = self.page(page);
-        let mut at = base + self.end;
-        let mut crc = image::log_crc(sequence);
-        for r in log {
-            let unit = r.encode();
-            self.program(at, &unit)?;
-            crc.update(&unit);
-            at += UNIT as u32;
-        }
+        let at = base + self.end;
+        let crc = self.program_records(at, log, image::log_crc(sequence))?;
+        let at = at + (log.len() * UNIT) as u32;
         // LOG_MAX records: the count fits its byte.
         self.commit(at, &image::log_commit(log.len() as u8, crc))?;
         self.end = at + UNIT as u32 - base;
         self.image.assign(image);
         Ok(())
+    }
+
+    /// Programs `records` from `at` on, one unit each; returns `crc` having digested them.
+    fn program_records(
+        &mut self,
+        mut at: u32,
+        records: &[Record],
+        mut crc: Crc32,
+    ) -> Result<Crc32, SaveError<F::Error>> {
+        for r in records {
+            let unit = r.encode();
+            self.program(at, &unit)?;
+            crc.update(&unit);
+            at += UNIT as u32;
+        }
+        Ok(crc)
     }
 
     /// Writes `unit` at `at` and reads it back.

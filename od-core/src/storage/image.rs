@@ -166,6 +166,17 @@ pub fn log_crc(sequence: u32) -> Crc32 {
     crc
 }
 
+/// [`Image::header`] of an image of `records` records, its CRC field still FFFFFFFFh.
+pub(crate) fn head(records: usize, identity: u32, sequence: u32) -> [u8; HEADER_SIZE - COMMIT_SIZE] {
+    let mut h = [0xFFu8; HEADER_SIZE - COMMIT_SIZE];
+    h[0..4].copy_from_slice(&MAGIC);
+    h[4..6].copy_from_slice(&VERSION.to_le_bytes());
+    h[6..8].copy_from_slice(&(records as u16).to_le_bytes());
+    h[8..12].copy_from_slice(&identity.to_le_bytes());
+    h[12..16].copy_from_slice(&sequence.to_le_bytes());
+    h
+}
+
 /// What a page's header says, once its records check ([`Image::decode_slot`]).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Slot {
@@ -297,12 +308,7 @@ impl Image {
     /// Bytes 8..32 of the slot that holds this image: magic, version, count, identity,
     /// sequence, reserved, CRC.
     pub fn header(&self, identity: u32, sequence: u32) -> [u8; HEADER_SIZE - COMMIT_SIZE] {
-        let mut h = [0xFFu8; HEADER_SIZE - COMMIT_SIZE];
-        h[0..4].copy_from_slice(&MAGIC);
-        h[4..6].copy_from_slice(&VERSION.to_le_bytes());
-        h[6..8].copy_from_slice(&(self.records.len() as u16).to_le_bytes());
-        h[8..12].copy_from_slice(&identity.to_le_bytes());
-        h[12..16].copy_from_slice(&sequence.to_le_bytes());
+        let mut h = head(self.records.len(), identity, sequence);
         let mut crc = Crc32::new();
         crc.update(&h[..20]);
         for r in &self.records {

@@ -148,7 +148,7 @@ impl Storage {
     fn capture(&mut self, od: &Od, node_id: u8, mask: Option<GroupMask>) {
         let all = mask.is_none_or(|m| m.0 & USER_GROUPS == USER_GROUPS);
         let known = self.captured_id == Some(node_id);
-        for k in 0..self.count {
+        for k in 0..self.count.min(MAX_STORED) {
             let pos = self.slots[k] as usize;
             let value = od.get(pos);
             if known && value == self.stored[k] {
