@@ -70,6 +70,8 @@ pub struct ParamFlash<F> {
     /// The page with the highest sequence number among those whose header checks, and that
     /// number: the next page goes after it.
     last: Option<(u32, u32)>,
+    /// The CRC each log entry of that page starts from (its sequence number digested).
+    log_crc: Crc32,
     /// That page holds the newest valid image: `image`, its log applied.
     valid: bool,
     /// Offset in that page where the next log entry goes; 0 when the page takes no more
@@ -91,6 +93,7 @@ impl<F: NorFlash> ParamFlash<F> {
             identity,
             read: false,
             last: None,
+            log_crc: Crc32::new(),
             valid: false,
             end: 0,
             image: Image::new(),
@@ -142,6 +145,7 @@ impl<F: NorFlash> ParamFlash<F> {
         self.end = 0;
         self.valid = match best {
             Some((page, slot)) => {
+                self.log_crc = image::log_crc(slot.sequence);
                 let mut image = core::mem::take(&mut self.image);
                 let ok = self.decode(page, Some(&mut image)).is_ok();
                 self.image = image;
@@ -165,7 +169,7 @@ impl<F: NorFlash> ParamFlash<F> {
         // read, and whether an erased unit was seen (all units after it must be erased too).
         let mut next = image::slot_size(slot.records) as u32;
         let (mut start, mut at, mut tail) = (next, next, false);
-        let mut crc = image::log_crc(slot.sequence);
+        let mut crc = self.log_crc;
         while at + UNIT as u32 <= size {
             let Some(unit) = read_unit(&mut self.flash, base + at) else { return Ok(()) };
             at += UNIT as u32;
@@ -196,7 +200,7 @@ impl<F: NorFlash> ParamFlash<F> {
                 }
             }
             start = at;
-            crc = image::log_crc(slot.sequence);
+            crc = self.log_crc;
         }
         if start == next {
             self.end = next;
@@ -300,6 +304,7 @@ impl<F: NorFlash> ParamFlash<F> {
         // The marker last, read back too: every byte of the page then is what was written.
         self.commit(base, &COMMIT)?;
         self.last = Some((n, sequence));
+        self.log_crc = image::log_crc(sequence);
         self.valid = true;
         self.end = len as u32;
         self.image.assign(image);
@@ -309,10 +314,10 @@ impl<F: NorFlash> ParamFlash<F> {
     /// Appends `log`, the records that turn the newest image into `image`, to the newest
     /// page's log, then the entry's commit unit; `image` is then the newest image.
     fn append(&mut self, log: &Log, image: &Image) -> Result<(), SaveError<F::Error>> {
-        let (page, sequence) = self.last.unwrap_or_default();
+        let (page, _) = self.last.unwrap_or_default();
         let base = self.page(page);
         let at = base + self.end;
-        let crc = self.program_records(at, log, image::log_crc(sequence))?;
+        let crc = self.program_records(at, log, self.log_crc)?;
         let at = at + (log.len() * UNIT) as u32;
         // LOG_MAX records: the count fits its byte.
         self.commit(at, &image::log_commit(log.len() as u8, crc))?;

@@ -324,6 +324,12 @@ pub(crate) const LOG_MAX: usize = 32;
 /// The records of one log entry.
 pub(crate) type Log = heapless::Vec<Record, LOG_MAX>;
 
+/// Adds `r` to `log` if it has room (one call, rather than the push at each place).
+#[inline(never)]
+fn note(log: &mut Log, r: Record) {
+    let _ = log.push(r);
+}
+
 /// The table positions of the entries a store may write (a storage group, or a pending
 /// node-ID or bit rate), as a bit set: what [`merge_into`] walks instead of the whole table.
 #[derive(Clone, Debug)]
@@ -381,7 +387,7 @@ pub(crate) fn merge_into(
                     break;
                 }
                 // A record of a key the dictionary does not declare, or does not store: dropped.
-                let _ = log.push(Record::removal(r.index, r.sub));
+                note(log, Record::removal(r.index, r.sub));
                 changed += 1;
             }
             // The value the image keeps for the entry, if any.
@@ -399,7 +405,7 @@ pub(crate) fn merge_into(
                 (true, Some(r)) if *r == Record::of(e, value) => new.push(*r)?,
                 _ => {
                     let record = if keep { Record::of(e, value) } else { Record::removal(e.index, e.sub) };
-                    let _ = log.push(record);
+                    note(log, record);
                     changed += 1;
                     if keep {
                         new.push(record)?;
@@ -409,7 +415,7 @@ pub(crate) fn merge_into(
         }
     }
     for r in &olds[i..] {
-        let _ = log.push(Record::removal(r.index, r.sub));
+        note(log, Record::removal(r.index, r.sub));
     }
     Ok(changed + olds.len() - i)
 }
