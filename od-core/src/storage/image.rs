@@ -169,11 +169,10 @@ pub fn log_crc(sequence: u32) -> Crc32 {
 /// [`Image::header`] of an image of `records` records, its CRC field still FFFFFFFFh.
 pub(crate) fn head(records: usize, identity: u32, sequence: u32) -> [u8; HEADER_SIZE - COMMIT_SIZE] {
     let mut h = [0xFFu8; HEADER_SIZE - COMMIT_SIZE];
-    h[0..4].copy_from_slice(&MAGIC);
-    h[4..6].copy_from_slice(&VERSION.to_le_bytes());
-    h[6..8].copy_from_slice(&(records as u16).to_le_bytes());
-    h[8..12].copy_from_slice(&identity.to_le_bytes());
-    h[12..16].copy_from_slice(&sequence.to_le_bytes());
+    let words = [u32::from_le_bytes(MAGIC), VERSION as u32 | (records as u32) << 16, identity, sequence];
+    for (bytes, word) in h.as_chunks_mut::<4>().0.iter_mut().zip(words) {
+        *bytes = word.to_le_bytes();
+    }
     h
 }
 
