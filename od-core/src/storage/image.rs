@@ -447,11 +447,15 @@ pub enum DecodeError {
 /// product code (1018h.01/.02) and device name (1008h) as declared. The dictionary's layout is
 /// deliberately not part of it, so that images survive firmware updates.
 pub fn identity(table: &[Entry]) -> u32 {
+    // Each key as the CRC digests it: index (little-endian), sub-index.
+    static KEYS: [[u8; 3]; 4] = [[0x00, 0x10, 0], [0x18, 0x10, 1], [0x18, 0x10, 2], [0x08, 0x10, 0]];
     let mut crc = Crc32::new();
-    for (index, sub) in [(0x1000, 0), (0x1018, 1), (0x1018, 2), (0x1008, 0)] {
-        if let Some(e) = table.iter().find(|e| (e.index, e.sub) == (index, sub)) {
-            crc.update(&index.to_le_bytes());
-            crc.update(&[sub]);
+    for k in &KEYS {
+        if let Some(e) = table.iter().find(|e| {
+            let [lo, hi] = e.index.to_le_bytes();
+            [lo, hi, e.sub] == *k
+        }) {
+            crc.update(k);
             match e.string_value() {
                 Some(s) => crc.update(s),
                 None => crc.update(&e.default_value(0).to_le_bytes()),
