@@ -177,7 +177,6 @@ impl Storage {
 /// Panics (at start-up, never on the bus) if the dictionary declares more than
 /// [`MAX_STORED`] user-stored entries: a declaration bug every device test catches.
 pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -> (Od, Storage, u8) {
-    assert!(user_entries(table).count() <= MAX_STORED, "more stored entries than MAX_STORED");
     let image = loaded.image();
     let node_id = table
         .iter()
@@ -203,7 +202,7 @@ pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -
         fault: *loaded == Loaded::Invalid,
     };
     for (k, pos, _) in user_entries(table) {
-        // MAX_ENTRIES (160) positions fit a byte.
+        // MAX_ENTRIES (160) positions fit a byte; slot MAX_STORED panics.
         storage.slots[k] = pos as u8;
         storage.count = k + 1;
     }
@@ -268,16 +267,20 @@ impl Storage {
     ) {
         // Any reset applies a pending restore to every group 1011h named (D-STO-10).
         let restore = self.restore;
-        let restored = |e: &Entry| restore.0 != 0 && is_user(e) && restores(e, restore);
+        // (Only user entries are restored: the slots are theirs.)
+        let restored = |e: &Entry| restore.0 != 0 && restores(e, restore);
+        let slots = &self.slots[..self.count.min(MAX_STORED)];
         // The pending entries first: the "+ node-ID" defaults use the node-ID the reset activates.
-        for (pos, e) in od.table().iter().enumerate() {
+        for &pos in slots {
+            let e = od.entry(pos as usize);
             if is_pending(e) && restored(e) {
-                od.set(pos, e.default_value(0));
+                od.set(pos as usize, e.default_value(0));
             }
         }
         let id = pending(od, CoreHook::PendingNodeId).map(|v| v as u8).filter(|v| (1..=127).contains(v));
         let id = id.unwrap_or(node_id);
-        for (k, pos, e) in user_entries(od.table()) {
+        for (k, &pos) in slots.iter().enumerate() {
+            let (pos, e) = (pos as usize, od.entry(pos as usize));
             let value = if restored(e) {
                 e.default_value(id)
             } else if !groups.contains(e.group) || is_pending(e) || is_log(e) {
