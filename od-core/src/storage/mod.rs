@@ -91,12 +91,13 @@ const BY_HOOK: u8 = GroupMask::LSS.0 | GroupMask::NODE_ID.0 | GroupMask::BITRATE
 /// Does a store of `mask` write the entry?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
     // A user entry in a selected group: its group's bit is in the mask (Factory's and None's
-    // bits are outside USER_GROUPS).
-    e.group.bit() & mask.0 & USER_GROUPS != 0
-        || (mask.0 & BY_HOOK != 0
-            && ((mask.0 & GroupMask::LSS.0 != 0 && is_pending(e))
-                || (mask.0 & GroupMask::NODE_ID.0 != 0 && e.hook == Hook::Core(CoreHook::PendingNodeId))
-                || (mask.0 & GroupMask::BITRATE.0 != 0 && e.hook == Hook::Core(CoreHook::PendingBitrate))))
+    // bits are outside USER_GROUPS); the pending node-ID and bit rate by the bits naming them.
+    let by_hook = match e.hook {
+        Hook::Core(CoreHook::PendingNodeId) => GroupMask::LSS.0 | GroupMask::NODE_ID.0,
+        Hook::Core(CoreHook::PendingBitrate) => GroupMask::LSS.0 | GroupMask::BITRATE.0,
+        _ => 0,
+    };
+    (e.group.bit() & USER_GROUPS | by_hook) & mask.0 != 0
 }
 
 /// The user-stored entries as (slot in [`Storage`], position in the table, entry).
