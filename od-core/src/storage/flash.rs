@@ -116,10 +116,10 @@ impl<F: NorFlash> ParamFlash<F> {
         self.region.offset + n * F::ERASE_SIZE as u32
     }
 
-    /// Checks page `n`'s image; with `out`, also reads its records.
-    fn decode(&mut self, n: u32, out: Option<&mut Image>) -> Result<Slot, DecodeError> {
+    /// Checks page `n`'s image; with `records`, also reads its records into `self.image`.
+    fn decode(&mut self, n: u32, records: bool) -> Result<Slot, DecodeError> {
         let base = self.page(n);
-        let flash = &mut self.flash;
+        let (flash, out) = (&mut self.flash, records.then_some(&mut self.image));
         Image::decode_slot(|at, buf| flash.read(base + at as u32, buf).is_ok(), F::ERASE_SIZE, self.identity, out)
     }
 
@@ -130,7 +130,7 @@ impl<F: NorFlash> ParamFlash<F> {
         let mut best: Option<(u32, Slot)> = None;
         let mut blank = true;
         for n in 0..self.region.pages {
-            match self.decode(n, None) {
+            match self.decode(n, false) {
                 Ok(slot) => {
                     blank = false;
                     if best.is_none_or(|(_, b)| slot.sequence > b.sequence) {
@@ -146,9 +146,7 @@ impl<F: NorFlash> ParamFlash<F> {
         self.valid = match best {
             Some((page, slot)) => {
                 self.log_crc = image::log_crc(slot.sequence);
-                let mut image = core::mem::take(&mut self.image);
-                let ok = self.decode(page, Some(&mut image)).is_ok();
-                self.image = image;
+                let ok = self.decode(page, true).is_ok();
                 // An entry that checks but cannot be applied whole (unreadable, or more
                 // records than an image holds): no image rather than half of one.
                 ok && (slot.version != image::VERSION || self.replay(page, &slot).is_ok())
