@@ -25,7 +25,8 @@
 
 use embedded_storage::nor_flash::NorFlash;
 
-use super::image::{self, Image, Record, Slot, COMMIT, COMMIT_SIZE, HEADER_SIZE, RECORD_SIZE, UNIT};
+use super::crc::Crc32;
+use super::image::{self, DecodeError, Image, Record, Slot, COMMIT, COMMIT_SIZE, HEADER_SIZE, UNIT};
 use super::{merge_into, Loaded, Log, Parameters, Storable};
 use crate::od::GroupMask;
 
@@ -55,33 +56,8 @@ pub enum SaveError<E> {
     Exhausted,
 }
 
-/// The newest valid page, as read at power-on and kept up to date by every save.
-#[derive(Clone, Debug)]
-struct Newest {
-    /// Its page in the region.
-    page: u32,
-    /// Its sequence number.
-    sequence: u32,
-    /// Offset in the page where the next log entry goes; `None` when the page takes no more
-    /// entries (a version-1 image, or a log that ends in an unfinished entry).
-    end: Option<u32>,
-    /// The image it holds, its log applied.
-    image: Image,
-}
-
-/// What the [`ParamFlash`] knows of its pages.
-// Not boxed: no allocation. The image is the point of keeping it.
-#[allow(clippy::large_enum_variant)]
-#[derive(Clone, Debug)]
-enum Known {
-    /// Nothing yet, or a save failed: read the ring before the next save.
-    Unread,
-    /// No valid image (blank, or nothing of ours). With the page holding the highest
-    /// sequence number, if one checks but its log cannot be applied: the next page goes after it.
-    Nothing(Option<(u32, u32)>),
-    /// The newest valid page.
-    Newest(Newest),
-}
+/// What a unit of erased flash reads.
+const ERASED: [u8; UNIT] = [0xFF; UNIT];
 
 /// The parameter pages of one device.
 #[derive(Clone, Debug)]
@@ -89,7 +65,20 @@ pub struct ParamFlash<F> {
     flash: F,
     region: Region,
     identity: u32,
-    known: Known,
+    /// The ring has been read (and no save failed since): what the fields below say is true.
+    read: bool,
+    /// The page with the highest sequence number among those whose header checks, and that
+    /// number: the next page goes after it.
+    last: Option<(u32, u32)>,
+    /// The CRC each log entry of that page starts from (its sequence number digested).
+    log_crc: Crc32,
+    /// That page holds the newest valid image: `image`, its log applied.
+    valid: bool,
+    /// Offset in that page where the next log entry goes; 0 when the page takes no more
+    /// entries (a version-1 image, or a log that ends in an unfinished entry).
+    end: u32,
+    /// The newest valid image, if `valid`.
+    image: Image,
     /// The storable entries of the dictionary saved last.
     storable: Option<Storable>,
 }
@@ -98,7 +87,18 @@ impl<F: NorFlash> ParamFlash<F> {
     /// The pages in `region` of `flash`, holding images of the device `identity`
     /// ([`super::identity`] of its dictionary).
     pub fn new(flash: F, region: Region, identity: u32) -> ParamFlash<F> {
-        ParamFlash { flash, region, identity, known: Known::Unread, storable: None }
+        ParamFlash {
+            flash,
+            region,
+            identity,
+            read: false,
+            last: None,
+            log_crc: Crc32::new(),
+            valid: false,
+            end: 0,
+            image: Image::new(),
+            storable: None,
+        }
     }
 
     /// The flash. What is written through it behind the [`ParamFlash`]'s back is seen at the
@@ -116,129 +116,111 @@ impl<F: NorFlash> ParamFlash<F> {
         self.region.offset + n * F::ERASE_SIZE as u32
     }
 
-    /// Checks one page's image; with `out`, also reads its records.
-    fn decode(&mut self, n: u32, out: Option<&mut Image>) -> Result<Slot, image::DecodeError> {
+    /// Checks page `n`'s image; with `records`, also reads its records into `self.image`.
+    fn decode(&mut self, n: u32, records: bool) -> Result<Slot, DecodeError> {
         let base = self.page(n);
-        let flash = &mut self.flash;
+        let (flash, out) = (&mut self.flash, records.then_some(&mut self.image));
         Image::decode_slot(|at, buf| flash.read(base + at as u32, buf).is_ok(), F::ERASE_SIZE, self.identity, out)
     }
 
-    /// Reads the ring: the newest valid page with its log applied; else whether no page was
-    /// ever committed (blank: erased, or a first save cut short), and the newest page whose
-    /// header checks, if any.
-    fn read_ring(&mut self) -> Result<Newest, (bool, Option<(u32, u32)>)> {
+    /// Reads the ring: the newest page whose header checks, and its image with the log
+    /// applied if that page is valid. Returns whether no page was ever committed (blank:
+    /// erased, or a first save cut short).
+    fn scan(&mut self) -> bool {
         let mut best: Option<(u32, Slot)> = None;
         let mut blank = true;
         for n in 0..self.region.pages {
-            match self.decode(n, None) {
+            match self.decode(n, false) {
                 Ok(slot) => {
                     blank = false;
                     if best.is_none_or(|(_, b)| slot.sequence > b.sequence) {
                         best = Some((n, slot));
                     }
                 }
-                Err(image::DecodeError::Uncommitted) => {}
-                Err(_) => blank = false,
+                Err(e) => blank &= e == DecodeError::Uncommitted,
             }
         }
-        let (page, slot) = best.ok_or((blank, None))?;
-        let unusable = (false, Some((page, slot.sequence)));
-        let mut image = Image::new();
-        self.decode(page, Some(&mut image)).map_err(|_| unusable)?;
-        let end = if slot.version == image::VERSION {
-            // An entry that checks but cannot be applied whole (unreadable, or more records
-            // than an image holds): no image rather than half of one.
-            self.replay(page, &slot, &mut image).map_err(|()| unusable)?
-        } else {
-            None
+        self.read = true;
+        self.last = best.map(|(n, slot)| (n, slot.sequence));
+        self.end = 0;
+        self.valid = match best {
+            Some((page, slot)) => {
+                self.log_crc = image::log_crc(slot.sequence);
+                let ok = self.decode(page, true).is_ok();
+                // An entry that checks but cannot be applied whole (unreadable, or more
+                // records than an image holds): no image rather than half of one.
+                ok && (slot.version != image::VERSION || self.replay(page, &slot).is_ok())
+            }
+            None => false,
         };
-        Ok(Newest { page, sequence: slot.sequence, end, image })
+        blank
     }
 
-    fn read_unit(&mut self, at: u32) -> Option<[u8; UNIT]> {
-        let mut unit = [0u8; UNIT];
-        self.flash.read(at, &mut unit).ok().map(|()| unit)
-    }
-
-    /// Applies the committed entries of page `page`'s log to `image`; returns where the next
-    /// entry goes, or `None` if the log ends in something that is not a whole entry (a save
-    /// a power cut interrupted: the page takes no more). `Err` if an entry that checks could
-    /// not be applied whole.
-    fn replay(&mut self, page: u32, slot: &Slot, image: &mut Image) -> Result<Option<u32>, ()> {
+    /// Applies the committed entries of page `page`'s log to the image and notes where the
+    /// next entry goes, unless the log ends in something that is not a whole entry followed
+    /// by erased flash (a save a power cut interrupted, or a page written by someone else:
+    /// the page takes no more). `Err` if an entry that checks could not be applied whole.
+    fn replay(&mut self, page: u32, slot: &Slot) -> Result<(), ()> {
         let base = self.page(page);
         let size = F::ERASE_SIZE as u32;
-        let mut at = image::slot_size(slot.records) as u32;
-        let mut start = at;
-        let mut crc = image::log_crc(slot.sequence);
+        // The unit after the last one read that is not erased, the start of the entry being
+        // read, and whether an erased unit was seen (all units after it must be erased too).
+        let mut next = image::slot_size(slot.records) as u32;
+        let (mut start, mut at, mut tail) = (next, next, false);
+        let mut crc = self.log_crc;
         while at + UNIT as u32 <= size {
-            let Some(unit) = self.read_unit(base + at) else { return Ok(None) };
-            if unit == [0xFF; UNIT] {
-                // The log ends here if the rest of the page is erased: only then can the next
-                // entry be written (a corrupt page is not written again).
-                let mut rest = at + UNIT as u32;
-                while rest + UNIT as u32 <= size {
-                    if self.read_unit(base + rest) != Some([0xFF; UNIT]) {
-                        return Ok(None);
-                    }
-                    rest += UNIT as u32;
+            let Some(unit) = read_unit(&mut self.flash, base + at) else { return Ok(()) };
+            at += UNIT as u32;
+            if tail || unit == ERASED {
+                if unit != ERASED {
+                    return Ok(());
                 }
-                break;
+                tail = true;
+                continue;
             }
+            next = at;
             if !image::is_log_commit(&unit) {
                 crc.update(&unit);
-                at += UNIT as u32;
                 continue;
             }
             let count = unit[2] as u32;
-            let sum = u32::from_le_bytes([unit[4], unit[5], unit[6], unit[7]]);
             crc.update(&unit[..4]);
-            if count == 0 || count * UNIT as u32 != at - start || crc.finish() != sum {
-                return Ok(None);
+            if count == 0 || (count + 1) * UNIT as u32 != at - start || crc.finish().to_le_bytes() != unit[4..] {
+                return Ok(());
             }
             // Removals first: the image never holds more records than before or after.
             for removals in [true, false] {
                 for k in 0..count {
-                    let r = Record::decode(&self.read_unit(base + start + k * UNIT as u32).ok_or(())?);
-                    if r.is_removal() != removals {
-                        continue;
-                    }
-                    if removals {
-                        image.remove(r.index, r.sub);
-                    } else {
-                        image.set(r).map_err(|_| ())?;
+                    let r = Record::decode(&read_unit(&mut self.flash, base + start + k * UNIT as u32).ok_or(())?);
+                    if r.is_removal() == removals {
+                        self.image.update(r, removals).map_err(|_| ())?;
                     }
                 }
             }
-            at += UNIT as u32;
             start = at;
-            crc = image::log_crc(slot.sequence);
+            crc = self.log_crc;
         }
-        // Records with no commit after them: an entry a power cut interrupted.
-        Ok((start == at).then_some(at))
+        if start == next {
+            self.end = next;
+        }
+        Ok(())
     }
 
     /// Reads what the pages hold: the newest valid image; else blank if no page was ever
     /// committed (erased, or a first save cut short); else invalid. What it finds is kept for
     /// the saves that follow.
     pub fn load(&mut self) -> Loaded {
-        match self.read_ring() {
-            Ok(newest) => {
-                let image = newest.image.clone();
-                self.known = Known::Newest(newest);
-                Loaded::Image(image)
-            }
-            Err((blank, newest)) => {
-                self.known = Known::Nothing(newest);
-                if blank {
-                    Loaded::Blank
-                } else {
-                    Loaded::Invalid
-                }
-            }
+        let blank = self.scan();
+        if self.valid {
+            Loaded::Image(self.image.clone())
+        } else if blank {
+            Loaded::Blank
+        } else {
+            Loaded::Invalid
         }
     }
 
-    fn check_region(&self) -> Result<(), SaveError<F::Error>> {
+    fn check_region(&mut self) -> Result<(), SaveError<F::Error>> {
         if self.region.pages < 2
             || !self.region.offset.is_multiple_of(F::ERASE_SIZE as u32)
             || !8usize.is_multiple_of(F::WRITE_SIZE)
@@ -246,14 +228,11 @@ impl<F: NorFlash> ParamFlash<F> {
         {
             return Err(SaveError::Region);
         }
-        Ok(())
-    }
-
-    /// Reads the ring unless what it holds is known.
-    fn know(&mut self) {
-        if matches!(self.known, Known::Unread) {
-            self.known = self.read_ring().map_or_else(|(_, newest)| Known::Nothing(newest), Known::Newest);
+        // The ring is read unless what it holds is known.
+        if !self.read {
+            self.scan();
         }
+        Ok(())
     }
 
     /// Performs an [`crate::Output::Store`]: the stored image with the current values of the
@@ -261,12 +240,8 @@ impl<F: NorFlash> ParamFlash<F> {
     /// written, into the newest page's log while it has room.
     pub fn save(&mut self, params: &impl Parameters, mask: GroupMask) -> Result<(), SaveError<F::Error>> {
         self.check_region()?;
-        self.know();
         let (mut image, mut log) = (Image::new(), Log::new());
-        let old = match &self.known {
-            Known::Newest(n) => n.image.records(),
-            _ => &[],
-        };
+        let old = if self.valid { self.image.records() } else { &[] };
         let od = params.od();
         let storable = match &mut self.storable {
             Some(s) if core::ptr::eq(s.table, od.table()) => s,
@@ -274,27 +249,19 @@ impl<F: NorFlash> ParamFlash<F> {
         };
         let count = merge_into(old, &mut image, &mut log, od, storable, params.node_id(), mask)
             .map_err(|_| SaveError::TooLarge)?;
-        let result = match &mut self.known {
-            Known::Newest(_) if count == 0 => return Ok(()),
-            Known::Newest(n) => match n.end.filter(|&end| end as usize + (count + 1) * UNIT <= F::ERASE_SIZE) {
-                Some(end) if count == log.len() => {
-                    let base = self.region.offset + n.page * F::ERASE_SIZE as u32;
-                    append(&mut self.flash, base, n, end, &image, &log)
-                }
-                _ => {
-                    let previous = Some((n.page, n.sequence));
-                    self.start_page(image, previous)
-                }
-            },
-            Known::Nothing(previous) => {
-                let previous = *previous;
-                self.start_page(image, previous)
-            }
-            Known::Unread => self.start_page(image, None),
-        };
-        if result.is_err() {
-            self.known = Known::Unread;
+        if self.valid && count == 0 {
+            return Ok(());
         }
+        let result = if self.valid
+            && self.end != 0
+            && count == log.len()
+            && self.end as usize + (count + 1) * UNIT <= F::ERASE_SIZE
+        {
+            self.append(&log, &image)
+        } else {
+            self.start_page(&image)
+        };
+        self.read &= result.is_ok();
         result
     }
 
@@ -302,91 +269,101 @@ impl<F: NorFlash> ParamFlash<F> {
     /// tools, tests).
     pub fn write(&mut self, image: &Image) -> Result<(), SaveError<F::Error>> {
         self.check_region()?;
-        self.know();
-        let previous = match &self.known {
-            Known::Newest(n) => Some((n.page, n.sequence)),
-            Known::Nothing(previous) => *previous,
-            Known::Unread => None,
-        };
-        let result = self.start_page(image.clone(), previous);
-        if result.is_err() {
-            self.known = Known::Unread;
-        }
+        let result = self.start_page(image);
+        self.read &= result.is_ok();
         result
     }
 
-    /// Starts the page after `previous` (page 0 on a ring with no valid image) with the whole
-    /// `image`.
-    fn start_page(&mut self, image: Image, previous: Option<(u32, u32)>) -> Result<(), SaveError<F::Error>> {
-        let page_size = F::ERASE_SIZE as u32;
-        if image::slot_size(image.len()) > F::ERASE_SIZE {
+    /// Starts the page after the last one (page 0 on a ring with no valid header) with the
+    /// whole `image`.
+    fn start_page(&mut self, image: &Image) -> Result<(), SaveError<F::Error>> {
+        let len = image::slot_size(image.len());
+        if len > F::ERASE_SIZE {
             return Err(SaveError::TooLarge);
         }
-        let (n, sequence) = match previous {
+        let (n, sequence) = match self.last {
             Some((n, s)) => ((n + 1) % self.region.pages, s.checked_add(1).ok_or(SaveError::Exhausted)?),
             None => (0, 1),
         };
         let base = self.page(n);
-        let header = image.header(self.identity, sequence);
-        self.flash.erase(base, base + page_size).map_err(SaveError::Flash)?;
+        self.flash.erase(base, base + F::ERASE_SIZE as u32).map_err(SaveError::Flash)?;
         // Each unit read back as it is written: a page that does not hold what was written
-        // never gets its commit marker.
-        for (i, r) in image.records().iter().enumerate() {
-            program(&mut self.flash, base + (HEADER_SIZE + i * RECORD_SIZE) as u32, &r.encode())?;
-        }
-        for (i, unit) in header.chunks_exact(UNIT).enumerate() {
-            let unit: &[u8; UNIT] = unit.try_into().map_err(|_| SaveError::Verify)?;
-            program(&mut self.flash, base + (COMMIT_SIZE + i * UNIT) as u32, unit)?;
+        // never gets its commit marker. The header's CRC covers its first 20 bytes and the records.
+        let mut header = image::head(image.len(), self.identity, sequence);
+        let mut crc = Crc32::new();
+        crc.update(&header[..20]);
+        let crc = self.program_records(base + HEADER_SIZE as u32, image.records(), crc)?;
+        header[20..].copy_from_slice(&crc.finish().to_le_bytes());
+        let mut at = base + COMMIT_SIZE as u32;
+        for unit in header.as_chunks::<UNIT>().0 {
+            self.program(at, unit)?;
+            at += UNIT as u32;
         }
         // The marker last, read back too: every byte of the page then is what was written.
-        if let Err(e) = program(&mut self.flash, base, &COMMIT) {
-            // Make sure the page never counts: programming zeros is always possible.
-            let _ = self.flash.write(base, &[0; COMMIT_SIZE]);
-            return Err(e);
-        }
-        let end = image::slot_size(image.len()) as u32;
-        self.known = Known::Newest(Newest { page: n, sequence, end: Some(end), image });
+        self.commit(base, &COMMIT)?;
+        self.last = Some((n, sequence));
+        self.log_crc = image::log_crc(sequence);
+        self.valid = true;
+        self.end = len as u32;
+        self.image.assign(image);
         Ok(())
     }
+
+    /// Appends `log`, the records that turn the newest image into `image`, to the newest
+    /// page's log, then the entry's commit unit; `image` is then the newest image.
+    fn append(&mut self, log: &Log, image: &Image) -> Result<(), SaveError<F::Error>> {
+        let (page, _) = self.last.unwrap_or_default();
+        let base = self.page(page);
+        let at = base + self.end;
+        let crc = self.program_records(at, log, self.log_crc)?;
+        let at = at + (log.len() * UNIT) as u32;
+        // LOG_MAX records: the count fits its byte.
+        self.commit(at, &image::log_commit(log.len() as u8, crc))?;
+        self.end = at + UNIT as u32 - base;
+        self.image.assign(image);
+        Ok(())
+    }
+
+    /// Programs `records` from `at` on, one unit each; returns `crc` having digested them.
+    fn program_records(
+        &mut self,
+        mut at: u32,
+        records: &[Record],
+        mut crc: Crc32,
+    ) -> Result<Crc32, SaveError<F::Error>> {
+        for r in records {
+            let unit = r.encode();
+            self.program(at, &unit)?;
+            crc.update(&unit);
+            at += UNIT as u32;
+        }
+        Ok(crc)
+    }
+
+    /// Writes `unit` at `at` and reads it back.
+    fn program(&mut self, at: u32, unit: &[u8; UNIT]) -> Result<(), SaveError<F::Error>> {
+        self.flash.write(at, unit).map_err(SaveError::Flash)?;
+        let mut back = [0u8; UNIT];
+        self.flash.read(at, &mut back).map_err(SaveError::Flash)?;
+        if back != *unit {
+            return Err(SaveError::Verify);
+        }
+        Ok(())
+    }
+
+    /// [`ParamFlash::program`] of a commit unit: if it fails, zeros make sure it never counts
+    /// (programming zeros is always possible).
+    fn commit(&mut self, at: u32, unit: &[u8; UNIT]) -> Result<(), SaveError<F::Error>> {
+        let result = self.program(at, unit);
+        if result.is_err() {
+            let _ = self.flash.write(at, &[0; UNIT]);
+        }
+        result
+    }
 }
 
-/// Writes `unit` at `at` and reads it back.
-fn program<F: NorFlash>(flash: &mut F, at: u32, unit: &[u8; UNIT]) -> Result<(), SaveError<F::Error>> {
-    flash.write(at, unit).map_err(SaveError::Flash)?;
-    let mut back = [0u8; UNIT];
-    flash.read(at, &mut back).map_err(SaveError::Flash)?;
-    if back != *unit {
-        return Err(SaveError::Verify);
-    }
-    Ok(())
-}
-
-/// Appends `log`, the records that turn `n`'s image (on the page at `base`) into `image`, to
-/// its log at `end`, then the entry's commit unit; `n` then holds `image`.
-fn append<F: NorFlash>(
-    flash: &mut F,
-    base: u32,
-    n: &mut Newest,
-    end: u32,
-    image: &Image,
-    log: &Log,
-) -> Result<(), SaveError<F::Error>> {
-    let mut at = base + end;
-    let mut crc = image::log_crc(n.sequence);
-    for r in log {
-        let unit = r.encode();
-        program(flash, at, &unit)?;
-        crc.update(&unit);
-        at += UNIT as u32;
-    }
-    // LOG_MAX records: the count fits its byte.
-    let commit = image::log_commit(log.len() as u8, crc);
-    if let Err(e) = program(flash, at, &commit) {
-        // Make sure the entry never counts: programming zeros is always possible.
-        let _ = flash.write(at, &[0; UNIT]);
-        return Err(e);
-    }
-    n.end = Some(at + UNIT as u32 - base);
-    n.image.assign(image);
-    Ok(())
+/// The unit at `at`, if it can be read.
+fn read_unit<F: NorFlash>(flash: &mut F, at: u32) -> Option<[u8; UNIT]> {
+    let mut unit = [0u8; UNIT];
+    flash.read(at, &mut unit).ok().map(|()| unit)
 }

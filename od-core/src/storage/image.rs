@@ -166,6 +166,16 @@ pub fn log_crc(sequence: u32) -> Crc32 {
     crc
 }
 
+/// [`Image::header`] of an image of `records` records, its CRC field still FFFFFFFFh.
+pub(crate) fn head(records: usize, identity: u32, sequence: u32) -> [u8; HEADER_SIZE - COMMIT_SIZE] {
+    let mut h = [0xFFu8; HEADER_SIZE - COMMIT_SIZE];
+    let words = [u32::from_le_bytes(MAGIC), VERSION as u32 | (records as u32) << 16, identity, sequence];
+    for (bytes, word) in h.as_chunks_mut::<4>().0.iter_mut().zip(words) {
+        *bytes = word.to_le_bytes();
+    }
+    h
+}
+
 /// What a page's header says, once its records check ([`Image::decode_slot`]).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Slot {
@@ -208,9 +218,22 @@ impl Image {
         self.records.is_empty()
     }
 
+    /// Where the record for (index, sub) is (`Ok`) or would go (`Err`): a linear search,
+    /// smaller than a binary one, and an image holds a few dozen records at most.
+    fn find(&self, index: u16, sub: u8) -> Result<usize, usize> {
+        let key = super::key(index, sub);
+        for (i, r) in self.records.iter().enumerate() {
+            let k = super::key(r.index, r.sub);
+            if k >= key {
+                return if k == key { Ok(i) } else { Err(i) };
+            }
+        }
+        Err(self.records.len())
+    }
+
     /// The record for (index, sub), if any.
     pub fn get(&self, index: u16, sub: u8) -> Option<&Record> {
-        self.records.binary_search_by(|r| r.key().cmp(&(index, sub))).ok().map(|i| &self.records[i])
+        self.find(index, sub).ok().map(|i| &self.records[i])
     }
 
     /// The value this image gives entry `e`, if it holds a record that fits it.
@@ -220,37 +243,42 @@ impl Image {
 
     /// Adds or replaces the record with `rec`'s key.
     pub fn set(&mut self, rec: Record) -> Result<(), Full> {
-        match self.records.binary_search_by(|r| r.key().cmp(&rec.key())) {
-            Ok(i) => {
-                self.records[i] = rec;
-                Ok(())
-            }
-            Err(i) => {
-                // Appended, then moved down into place one swap at a time: `Vec::insert`'s
-                // overlapping copy would link a 1.6 KiB `memmove` into the firmware.
-                self.records.push(rec).map_err(|_| Full)?;
-                let mut at = self.records.len() - 1;
-                while at > i {
-                    let (low, high) = self.records.split_at_mut(at);
-                    core::mem::swap(&mut low[at - 1], &mut high[0]);
-                    at -= 1;
-                }
-                Ok(())
-            }
-        }
+        self.update(rec, false)
     }
 
     /// Removes the record for (index, sub), if any.
     pub fn remove(&mut self, index: u16, sub: u8) {
-        if let Ok(mut at) = self.records.binary_search_by(|r| r.key().cmp(&(index, sub))) {
-            // Moved up to the end one swap at a time, then dropped (no `memmove`, as in `set`).
-            while at + 1 < self.records.len() {
-                let (low, high) = self.records.split_at_mut(at + 1);
-                core::mem::swap(&mut low[at], &mut high[0]);
-                at += 1;
+        let _ = self.update(Record::removal(index, sub), true);
+    }
+
+    /// Sets `rec`, or with `remove` removes its key. Records move one swap at a time:
+    /// `Vec::insert`'s overlapping copy would link a 1.6 KiB `memmove` into the firmware.
+    #[inline(never)]
+    pub(crate) fn update(&mut self, rec: Record, remove: bool) -> Result<(), Full> {
+        let found = self.find(rec.index, rec.sub);
+        let v = &mut self.records;
+        match found {
+            Ok(i) if !remove => v[i] = rec,
+            Ok(mut i) => {
+                // Moved up to the end, then dropped.
+                while i + 1 < v.len() {
+                    v.swap(i, i + 1);
+                    i += 1;
+                }
+                v.pop();
             }
-            self.records.pop();
+            Err(_) if remove => {}
+            Err(i) => {
+                // Appended, then moved down into place.
+                v.push(rec).map_err(|_| Full)?;
+                let mut at = v.len() - 1;
+                while at > i {
+                    v.swap(at - 1, at);
+                    at -= 1;
+                }
+            }
         }
+        Ok(())
     }
 
     /// Makes this image a copy of `other` (copying only the records it holds).
@@ -268,18 +296,18 @@ impl Image {
     /// Appends a record read from a slot; false unless keys strictly increase and there is room.
     pub(crate) fn push_sorted(&mut self, rec: Record) -> bool {
         let ordered = self.records.last().is_none_or(|l| l.key() < rec.key());
-        ordered && self.records.push(rec).is_ok()
+        ordered && self.push(rec).is_ok()
+    }
+
+    /// Appends a record whose key is above every key held.
+    pub(crate) fn push(&mut self, rec: Record) -> Result<(), Full> {
+        self.records.push(rec).map_err(|_| Full)
     }
 
     /// Bytes 8..32 of the slot that holds this image: magic, version, count, identity,
     /// sequence, reserved, CRC.
     pub fn header(&self, identity: u32, sequence: u32) -> [u8; HEADER_SIZE - COMMIT_SIZE] {
-        let mut h = [0xFFu8; HEADER_SIZE - COMMIT_SIZE];
-        h[0..4].copy_from_slice(&MAGIC);
-        h[4..6].copy_from_slice(&VERSION.to_le_bytes());
-        h[6..8].copy_from_slice(&(self.records.len() as u16).to_le_bytes());
-        h[8..12].copy_from_slice(&identity.to_le_bytes());
-        h[12..16].copy_from_slice(&sequence.to_le_bytes());
+        let mut h = head(self.records.len(), identity, sequence);
         let mut crc = Crc32::new();
         crc.update(&h[..20]);
         for r in &self.records {
@@ -419,11 +447,15 @@ pub enum DecodeError {
 /// product code (1018h.01/.02) and device name (1008h) as declared. The dictionary's layout is
 /// deliberately not part of it, so that images survive firmware updates.
 pub fn identity(table: &[Entry]) -> u32 {
+    // Each key as the CRC digests it: index (little-endian), sub-index.
+    static KEYS: [[u8; 3]; 4] = [[0x00, 0x10, 0], [0x18, 0x10, 1], [0x18, 0x10, 2], [0x08, 0x10, 0]];
     let mut crc = Crc32::new();
-    for (index, sub) in [(0x1000, 0), (0x1018, 1), (0x1018, 2), (0x1008, 0)] {
-        if let Some(e) = table.iter().find(|e| (e.index, e.sub) == (index, sub)) {
-            crc.update(&index.to_le_bytes());
-            crc.update(&[sub]);
+    for k in &KEYS {
+        if let Some(e) = table.iter().find(|e| {
+            let [lo, hi] = e.index.to_le_bytes();
+            [lo, hi, e.sub] == *k
+        }) {
+            crc.update(k);
             match e.string_value() {
                 Some(s) => crc.update(s),
                 None => crc.update(&e.default_value(0).to_le_bytes()),

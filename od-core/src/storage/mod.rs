@@ -91,12 +91,13 @@ const BY_HOOK: u8 = GroupMask::LSS.0 | GroupMask::NODE_ID.0 | GroupMask::BITRATE
 /// Does a store of `mask` write the entry?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
     // A user entry in a selected group: its group's bit is in the mask (Factory's and None's
-    // bits are outside USER_GROUPS).
-    e.group.bit() & mask.0 & USER_GROUPS != 0
-        || (mask.0 & BY_HOOK != 0
-            && ((mask.0 & GroupMask::LSS.0 != 0 && is_pending(e))
-                || (mask.0 & GroupMask::NODE_ID.0 != 0 && e.hook == Hook::Core(CoreHook::PendingNodeId))
-                || (mask.0 & GroupMask::BITRATE.0 != 0 && e.hook == Hook::Core(CoreHook::PendingBitrate))))
+    // bits are outside USER_GROUPS); the pending node-ID and bit rate by the bits naming them.
+    let by_hook = match e.hook {
+        Hook::Core(CoreHook::PendingNodeId) => GroupMask::LSS.0 | GroupMask::NODE_ID.0,
+        Hook::Core(CoreHook::PendingBitrate) => GroupMask::LSS.0 | GroupMask::BITRATE.0,
+        _ => 0,
+    };
+    (e.group.bit() & USER_GROUPS | by_hook) & mask.0 != 0
 }
 
 /// The user-stored entries as (slot in [`Storage`], position in the table, entry).
@@ -148,7 +149,7 @@ impl Storage {
     fn capture(&mut self, od: &Od, node_id: u8, mask: Option<GroupMask>) {
         let all = mask.is_none_or(|m| m.0 & USER_GROUPS == USER_GROUPS);
         let known = self.captured_id == Some(node_id);
-        for k in 0..self.count {
+        for k in 0..self.count.min(MAX_STORED) {
             let pos = self.slots[k] as usize;
             let value = od.get(pos);
             if known && value == self.stored[k] {
@@ -177,7 +178,6 @@ impl Storage {
 /// Panics (at start-up, never on the bus) if the dictionary declares more than
 /// [`MAX_STORED`] user-stored entries: a declaration bug every device test catches.
 pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -> (Od, Storage, u8) {
-    assert!(user_entries(table).count() <= MAX_STORED, "more stored entries than MAX_STORED");
     let image = loaded.image();
     let node_id = table
         .iter()
@@ -203,7 +203,7 @@ pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -
         fault: *loaded == Loaded::Invalid,
     };
     for (k, pos, _) in user_entries(table) {
-        // MAX_ENTRIES (160) positions fit a byte.
+        // MAX_ENTRIES (160) positions fit a byte; slot MAX_STORED panics.
         storage.slots[k] = pos as u8;
         storage.count = k + 1;
     }
@@ -268,16 +268,20 @@ impl Storage {
     ) {
         // Any reset applies a pending restore to every group 1011h named (D-STO-10).
         let restore = self.restore;
-        let restored = |e: &Entry| restore.0 != 0 && is_user(e) && restores(e, restore);
+        // (Only user entries are restored: the slots are theirs.)
+        let restored = |e: &Entry| restore.0 != 0 && restores(e, restore);
+        let slots = &self.slots[..self.count.min(MAX_STORED)];
         // The pending entries first: the "+ node-ID" defaults use the node-ID the reset activates.
-        for (pos, e) in od.table().iter().enumerate() {
+        for &pos in slots {
+            let e = od.entry(pos as usize);
             if is_pending(e) && restored(e) {
-                od.set(pos, e.default_value(0));
+                od.set(pos as usize, e.default_value(0));
             }
         }
         let id = pending(od, CoreHook::PendingNodeId).map(|v| v as u8).filter(|v| (1..=127).contains(v));
         let id = id.unwrap_or(node_id);
-        for (k, pos, e) in user_entries(od.table()) {
+        for (k, &pos) in slots.iter().enumerate() {
+            let (pos, e) = (pos as usize, od.entry(pos as usize));
             let value = if restored(e) {
                 e.default_value(id)
             } else if !groups.contains(e.group) || is_pending(e) || is_log(e) {
@@ -324,6 +328,12 @@ pub(crate) const LOG_MAX: usize = 32;
 /// The records of one log entry.
 pub(crate) type Log = heapless::Vec<Record, LOG_MAX>;
 
+/// Adds `r` to `log` if it has room (one call, rather than the push at each place).
+#[inline(never)]
+fn note(log: &mut Log, r: Record) {
+    let _ = log.push(r);
+}
+
 /// The table positions of the entries a store may write (a storage group, or a pending
 /// node-ID or bit rate), as a bit set: what [`merge_into`] walks instead of the whole table.
 #[derive(Clone, Debug)]
@@ -360,8 +370,6 @@ pub(crate) fn merge_into(
     node_id: u8,
     mask: GroupMask,
 ) -> Result<usize, image::Full> {
-    let groups = mask.0 & USER_GROUPS;
-    let by_hook = mask.0 & BY_HOOK != 0;
     let table = od.table();
     let (mut i, mut changed) = (0, 0);
     for (w, &word) in storable.bits.iter().enumerate() {
@@ -371,38 +379,47 @@ pub(crate) fn merge_into(
             bits &= bits - 1;
             let Some(e) = table.get(pos) else { continue };
             let k = key(e.index, e.sub);
-            // Records of keys the dictionary does not declare, or does not store, are passed
-            // over: dropped.
-            while let Some(r) = olds.get(i).filter(|r| key(r.index, r.sub) < k) {
-                let _ = log.push(Record::removal(r.index, r.sub));
+            let mut stored = None;
+            while let Some(r) = olds.get(i) {
+                let rk = key(r.index, r.sub);
+                if rk > k {
+                    break;
+                }
                 i += 1;
+                if rk == k {
+                    stored = Some(r);
+                    break;
+                }
+                // A record of a key the dictionary does not declare, or does not store: dropped.
+                note(log, Record::removal(r.index, r.sub));
                 changed += 1;
             }
-            let stored = olds.get(i).filter(|r| key(r.index, r.sub) == k);
-            i += usize::from(stored.is_some());
-            let bit = e.group.bit();
-            let take = bit & groups != 0
-                || (by_hook && selected(e, mask))
-                || (e.group == Group::Factory && !stored.is_some_and(|r| r.fits(e)));
-            let record = if take {
-                let value = od.get(pos);
-                (value != e.default_value(node_id)).then(|| Record::of(e, value))
-            } else {
-                stored.filter(|r| r.fits(e)).copied()
+            // The value the image keeps for the entry, if any.
+            let take = e.group.bit() & mask.0 & USER_GROUPS != 0 || (mask.0 & BY_HOOK != 0 && selected(e, mask));
+            let (value, keep) = match stored {
+                Some(r) if !take && (e.group != Group::Factory || r.fits(e)) => (r.value, r.fits(e)),
+                _ if take || e.group == Group::Factory => {
+                    let value = od.get(pos);
+                    (value, value != e.default_value(node_id))
+                }
+                _ => (0, false),
             };
-            if record.as_ref() != stored {
-                let _ = log.push(record.unwrap_or(Record::removal(e.index, e.sub)));
-                changed += 1;
-            }
-            if let Some(r) = record {
-                if !new.push_sorted(r) {
-                    return Err(image::Full);
+            match (keep, stored) {
+                (false, None) => {}
+                (true, Some(r)) if *r == Record::of(e, value) => new.push(*r)?,
+                _ => {
+                    let record = if keep { Record::of(e, value) } else { Record::removal(e.index, e.sub) };
+                    note(log, record);
+                    changed += 1;
+                    if keep {
+                        new.push(record)?;
+                    }
                 }
             }
         }
     }
     for r in &olds[i..] {
-        let _ = log.push(Record::removal(r.index, r.sub));
+        note(log, Record::removal(r.index, r.sub));
     }
     Ok(changed + olds.len() - i)
 }
