@@ -44,6 +44,18 @@ fn ap10t_save_answered_over_an_external_heartbeat_timeout() {
     run_case(&data);
 }
 
+/// Found by the J1939 proptest (shrunk by hand further): a WV58MR whose claim stood gets a
+/// segmented CAM21 download of 3000h.06 (initiate without a size, then one last segment with
+/// 00h); EPOS went on at priority 3 because only an initiate download reached the scheduler
+/// (D-J1939-28). The same for any 3000h entry, e.g. Proprietary B at the old 3000h.04.
+#[test]
+fn wv58mr_segmented_write_of_a_priority_reaches_the_cyclic_groups() {
+    run_j1939(&WV58MR_SEGMENTED_PRIORITY);
+}
+
+const WV58MR_SEGMENTED_PRIORITY: [u8; 23] =
+    [0, 0, 45, 183, 227, 0, 83, 7, 0, 226, 40, 131, 159, 0, 131, 0, 65, 51, 0, 0, 97, 9, 43];
+
 const AP10T_SAVE_OVER_TIMEOUT: [u8; 535] = [
     229, 242, 85, 117, 107, 183, 0, 144, 253, 165, 87, 110, 227, 239, 181, 103, 204, 191, 238, 204, 203, 39, 226, 71,
     233, 87, 88, 144, 254, 46, 133, 65, 92, 148, 224, 64, 204, 166, 201, 12, 247, 25, 54, 27, 152, 213, 85, 205, 238,
