@@ -2,9 +2,10 @@
 //! timing into a node of every device kind, every invariant checked after every input.
 //! `PROPTEST_CASES` sets the number of cases (default 256).
 
+use od_core::{CanId, Frame};
 use proptest::prelude::*;
-use tests_host::invariants::j1939::run_j1939;
-use tests_host::invariants::{run_case, KINDS};
+use tests_host::invariants::j1939::{run_j1939, J1939Rig, TURNS};
+use tests_host::invariants::{run_case, Action, KINDS};
 
 fn cases() -> u32 {
     std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(256)
@@ -51,6 +52,25 @@ fn ap10t_save_answered_over_an_external_heartbeat_timeout() {
 #[test]
 fn wv58mr_segmented_write_of_a_priority_reaches_the_cyclic_groups() {
     run_j1939(&WV58MR_SEGMENTED_PRIORITY);
+}
+
+/// The shape of the first report (Proprietary B, 18FFAAEFh, at the old priority): 3000h.01 :=
+/// 100 ms expedited, then 3000h.04 := 2 segmented; every Proprietary B after it is at 2.
+#[test]
+fn wv58mr_proprietary_b_priority_written_segmented() {
+    let mut rig = J1939Rig::new(TURNS[0], 0x1_2345, None);
+    let cam = |d: [u8; 8]| Action::Frame(Frame::new(CanId::Ext(0x1C06_EF00), &d));
+    let actions = [
+        Action::Advance(1_000_000),
+        cam([0x2B, 0x00, 0x30, 0x01, 0x64, 0x00, 0x00, 0x00]),
+        cam([0x21, 0x00, 0x30, 0x04, 0x01, 0x00, 0x00, 0x00]),
+        cam([0x0D, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+        Action::Advance(300_000),
+    ];
+    for (n, a) in actions.into_iter().enumerate() {
+        rig.apply(a).unwrap_or_else(|v| panic!("action {n}: {v}"));
+    }
+    rig.settle().unwrap();
 }
 
 const WV58MR_SEGMENTED_PRIORITY: [u8; 23] =
