@@ -2,9 +2,10 @@
 //! timing into a node of every device kind, every invariant checked after every input.
 //! `PROPTEST_CASES` sets the number of cases (default 256).
 
+use od_core::{CanId, Frame};
 use proptest::prelude::*;
-use tests_host::invariants::j1939::run_j1939;
-use tests_host::invariants::{run_case, KINDS};
+use tests_host::invariants::j1939::{run_j1939, J1939Rig, TURNS};
+use tests_host::invariants::{run_case, Action, KINDS};
 
 fn cases() -> u32 {
     std::env::var("PROPTEST_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(256)
@@ -43,6 +44,37 @@ fn ap10t_save_answered_over_an_external_heartbeat_timeout() {
     data.extend_from_slice(&AP10T_SAVE_OVER_TIMEOUT);
     run_case(&data);
 }
+
+/// Found by the J1939 proptest (shrunk by hand further): a WV58MR whose claim stood gets a
+/// segmented CAM21 download of 3000h.06 (initiate without a size, then one last segment with
+/// 00h); EPOS went on at priority 3 because only an initiate download reached the scheduler
+/// (D-J1939-28). The same for any 3000h entry, e.g. Proprietary B at the old 3000h.04.
+#[test]
+fn wv58mr_segmented_write_of_a_priority_reaches_the_cyclic_groups() {
+    run_j1939(&WV58MR_SEGMENTED_PRIORITY);
+}
+
+/// The shape of the first report (Proprietary B, 18FFAAEFh, at the old priority): 3000h.01 :=
+/// 100 ms expedited, then 3000h.04 := 2 segmented; every Proprietary B after it is at 2.
+#[test]
+fn wv58mr_proprietary_b_priority_written_segmented() {
+    let mut rig = J1939Rig::new(TURNS[0], 0x1_2345, None);
+    let cam = |d: [u8; 8]| Action::Frame(Frame::new(CanId::Ext(0x1C06_EF00), &d));
+    let actions = [
+        Action::Advance(1_000_000),
+        cam([0x2B, 0x00, 0x30, 0x01, 0x64, 0x00, 0x00, 0x00]),
+        cam([0x21, 0x00, 0x30, 0x04, 0x01, 0x00, 0x00, 0x00]),
+        cam([0x0D, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]),
+        Action::Advance(300_000),
+    ];
+    for (n, a) in actions.into_iter().enumerate() {
+        rig.apply(a).unwrap_or_else(|v| panic!("action {n}: {v}"));
+    }
+    rig.settle().unwrap();
+}
+
+const WV58MR_SEGMENTED_PRIORITY: [u8; 23] =
+    [0, 0, 45, 183, 227, 0, 83, 7, 0, 226, 40, 131, 159, 0, 131, 0, 65, 51, 0, 0, 97, 9, 43];
 
 const AP10T_SAVE_OVER_TIMEOUT: [u8; 535] = [
     229, 242, 85, 117, 107, 183, 0, 144, 253, 165, 87, 110, 227, 239, 181, 103, 204, 191, 238, 204, 203, 39, 226, 71,

@@ -745,3 +745,42 @@ fn a_corrupt_parameter_flash_is_reported_by_emcy_6300h_once_the_claim_stood() {
     assert_eq!(emcy[0].1.payload(), &[0x00, 0x63, 0x01, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF]);
     assert_eq!(node.context().od.value(0x1003, 1), Some(0x6300));
 }
+
+/// A segmented CAM21 download to 3000h takes effect as an expedited one does (D-J1939-28): the
+/// value lands with the last segment, and the cyclic groups follow it from there (the random
+/// proptest found Proprietary B still sent at the priority 3000h.04 held before).
+#[test]
+fn a_segmented_write_to_3000h_reaches_the_cyclic_groups() {
+    let (mut bus, _, _) = setup(SERIAL);
+    claimed(&mut bus, SERIAL);
+    // 3000h.04 (Proprietary B's priority) := 2, segmented: initiate (1 byte), one last segment.
+    let (_, a) = cam_exchange(&mut bus, EF, MASTER, [0x21, 0x00, 0x30, 0x04, 0x01, 0x00, 0x00, 0x00]);
+    assert_eq!(a, [0x60, 0x00, 0x30, 0x04, 0x00, 0x00, 0x00, 0x00]);
+    let (_, a) = cam_exchange(&mut bus, EF, MASTER, [0x0D, 0x02, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]);
+    assert_eq!(a[0], 0x20);
+    assert_eq!(cam_read(&mut bus, EF, MASTER, 0x3000, 4)[4], 0x02);
+    // 3000h.01 := 100 ms, segmented too: Proprietary B is sent at once, then every 100 ms, at
+    // priority 2.
+    let (_, a) = cam_exchange(&mut bus, EF, MASTER, [0x21, 0x00, 0x30, 0x01, 0x02, 0x00, 0x00, 0x00]);
+    assert_eq!(a[0], 0x60);
+    let (_, a) = cam_exchange(&mut bus, EF, MASTER, [0x0B, 0x64, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]);
+    assert_eq!(a[0], 0x20);
+    let t = bus.now();
+    bus.advance(250);
+    let b = of_group(&bus.drain(), Pgn::PROPRIETARY_B);
+    assert_eq!(b.iter().map(|s| s.at.micros_since(t)).collect::<Vec<_>>(), [0, 100_000, 200_000]);
+    assert!(b.iter().all(|s| raw_id(&s.frame) == 0x08FF_AAEF), "{b:02X?}");
+    // A Request for it is answered at that priority too.
+    bus.send(Request { pgn: Pgn::PROPRIETARY_B }.frame(EF, MASTER));
+    bus.advance(1);
+    let b = of_group(&bus.drain(), Pgn::PROPRIETARY_B);
+    assert_eq!(b.iter().map(|s| raw_id(&s.frame)).collect::<Vec<_>>(), [0x08FF_AAEF]);
+    // 3000h.01 := 0, segmented: Proprietary B stops.
+    let (_, a) = cam_exchange(&mut bus, EF, MASTER, [0x21, 0x00, 0x30, 0x01, 0x02, 0x00, 0x00, 0x00]);
+    assert_eq!(a[0], 0x60);
+    let (_, a) = cam_exchange(&mut bus, EF, MASTER, [0x0B, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00]);
+    assert_eq!(a[0], 0x20);
+    bus.drain();
+    bus.advance(500);
+    assert!(of_group(&bus.drain(), Pgn::PROPRIETARY_B).is_empty(), "0 switches it off");
+}

@@ -291,9 +291,10 @@ impl<D: J1939Device> J1939Node<D> {
             // A deferred write (1010h "save"): the answer follows the store, to its requester.
             None => self.deferred_to = Some(requester),
         }
-        // Only a write (an initiate download, 001b in the command's top bits) can change the
-        // cycle times and priorities the scheduler follows (3000h, and 6200h linked to it).
-        if data.first().is_some_and(|cs| cs >> 5 == 1) {
+        // Only a write can change the cycle times and priorities the scheduler follows (3000h,
+        // and 6200h linked to it): an expedited one with its initiate download (001b in the
+        // command's top bits), a segmented one with its download segments (000b, the last one writes; D-J1939-28).
+        if data.first().is_some_and(|cs| cs >> 5 <= 1) {
             self.sync_schedule(now);
         }
         match self.device.take_command() {
