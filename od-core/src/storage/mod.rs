@@ -160,7 +160,7 @@ impl Storage {
             }
             self.stored[k] = value;
             let bit = 1u64 << k;
-            if value == e.default_value(node_id) {
+            if value == od.default_value(pos, node_id) {
                 self.at_default |= bit;
             } else {
                 self.at_default &= !bit;
@@ -177,14 +177,25 @@ impl Storage {
 /// Panics (at start-up, never on the bus) if the dictionary declares more than
 /// [`MAX_STORED`] user-stored entries: a declaration bug every device test catches.
 pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -> (Od, Storage, u8) {
+    power_on_as(table, None, loaded, fallback)
+}
+
+/// [`power_on`] for a device variant that ships with node-ID `factory` rather than the
+/// table's declared one ([`Od::with_factory_node_id`]).
+pub(crate) fn power_on_as(
+    table: &'static [Entry],
+    factory: Option<u8>,
+    loaded: &Loaded,
+    fallback: u8,
+) -> (Od, Storage, u8) {
     assert!(user_entries(table).count() <= MAX_STORED, "more stored entries than MAX_STORED");
     let image = loaded.image();
     let node_id = table
         .iter()
         .find(|e| e.hook == Hook::Core(CoreHook::PendingNodeId))
-        .map(|e| image.and_then(|i| i.value_for(e)).unwrap_or(e.default_value(0)) as u8)
+        .map(|e| image.and_then(|i| i.value_for(e)).unwrap_or(e.default_value_in(0, factory.unwrap_or(0))) as u8)
         .unwrap_or(fallback);
-    let mut od = Od::new(table, node_id);
+    let mut od = Od::with_factory_node_id(table, node_id, factory);
     if let Some(image) = image {
         for (pos, e) in table.iter().enumerate() {
             if let Some(v) = image.value_for(e) {
@@ -272,18 +283,18 @@ impl Storage {
         // The pending entries first: the "+ node-ID" defaults use the node-ID the reset activates.
         for (pos, e) in od.table().iter().enumerate() {
             if is_pending(e) && restored(e) {
-                od.set(pos, e.default_value(0));
+                od.set(pos, od.default_value(pos, 0));
             }
         }
         let id = pending(od, CoreHook::PendingNodeId).map(|v| v as u8).filter(|v| (1..=127).contains(v));
         let id = id.unwrap_or(node_id);
         for (k, pos, e) in user_entries(od.table()) {
             let value = if restored(e) {
-                e.default_value(id)
+                od.default_value(pos, id)
             } else if !groups.contains(e.group) || is_pending(e) || is_log(e) {
                 continue;
             } else if self.at_default & (1 << k) != 0 {
-                e.default_value(id)
+                od.default_value(pos, id)
             } else {
                 self.stored[k]
             };
@@ -386,7 +397,7 @@ pub(crate) fn merge_into(
                 || (e.group == Group::Factory && !stored.is_some_and(|r| r.fits(e)));
             let record = if take {
                 let value = od.get(pos);
-                (value != e.default_value(node_id)).then(|| Record::of(e, value))
+                (value != od.default_value(pos, node_id)).then(|| Record::of(e, value))
             } else {
                 stored.filter(|r| r.fits(e)).copied()
             };
