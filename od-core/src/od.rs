@@ -532,8 +532,8 @@ impl Entry {
 
     /// The default for a node with this node-ID in a dictionary whose factory node-ID is
     /// `factory` (0: none, the declared default): [`Entry::default_value`] but for an entry
-    /// marked [`Entry::factory_node_id`]. What [`Od::default_value`] answers.
-    #[inline]
+    /// marked [`Entry::factory_node_id`]. What [`Od::default_of`] answers.
+    #[inline(always)]
     pub const fn default_value_in(&self, node_id: u8, factory: u8) -> u32 {
         if self.flags & FACTORY_NODE_ID != 0 && factory != 0 {
             factory as u32
@@ -708,12 +708,12 @@ impl Od {
         }
     }
 
-    /// The default at `pos` for a node with this node-ID: the declared one
-    /// ([`Entry::default_value`]), or this dictionary's factory node-ID for the entry marked
-    /// [`Entry::factory_node_id`].
-    #[inline]
-    pub fn default_value(&self, pos: usize, node_id: u8) -> u32 {
-        self.table[pos].default_value_in(node_id, self.factory)
+    /// The default of `e`, one of this dictionary's entries, for a node with this node-ID: the
+    /// declared one ([`Entry::default_value`]), or this dictionary's factory node-ID for the
+    /// entry marked [`Entry::factory_node_id`].
+    #[inline(never)]
+    pub fn default_of(&self, e: &Entry, node_id: u8) -> u32 {
+        e.default_value_in(node_id, self.factory)
     }
 
     /// The node-ID the device variant ships with if it is not the table's declared one

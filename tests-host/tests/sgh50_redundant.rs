@@ -60,8 +60,8 @@ fn two_nodes_boot_with_node_ids_1_and_2_and_identical_identity_but_serial() {
     // One table for both: the second's dictionary takes 2 as its factory node-ID.
     let second = Sgh50::new(Variant::Redundant(Channel::Second));
     assert_eq!((second.table().as_ptr(), second.factory_node_id()), (sgh50::TABLE.as_ptr(), Some(2)));
-    let pos = b.pos(0x5F0A, 1).unwrap();
-    assert_eq!((a.default_value(pos, 0), b.default_value(pos, 0)), (1, 2));
+    let e = b.entry(b.pos(0x5F0A, 1).unwrap());
+    assert_eq!((a.default_of(e, 0), b.default_of(e, 0)), (1, 2));
 }
 
 #[test]

@@ -284,16 +284,17 @@ mod tests {
 
     #[test]
     fn the_second_encoder_differs_only_in_its_node_id_default() {
-        let (first, second) = (Sgh50::new(Variant::Redundant(Channel::First)), Sgh50::new(Variant::Redundant(Channel::Second)));
+        let (first, second) =
+            (Sgh50::new(Variant::Redundant(Channel::First)), Sgh50::new(Variant::Redundant(Channel::Second)));
         assert_eq!(first.table().as_ptr(), second.table().as_ptr(), "one table");
         let a = Od::with_factory_node_id(TABLE, DEFAULT_NODE_ID, first.factory_node_id());
         let b = Od::with_factory_node_id(TABLE, SECOND_NODE_ID, second.factory_node_id());
-        for (pos, e) in TABLE.iter().enumerate() {
+        for e in TABLE {
             if (e.index, e.sub) == (0x5F0A, 1) {
-                assert_eq!((a.default_value(pos, 0), b.default_value(pos, 0)), (1, 2));
-                assert_eq!((a.get(pos), b.get(pos)), (1, 2));
+                assert_eq!((a.default_of(e, 0), b.default_of(e, 0)), (1, 2));
+                assert_eq!((a.value(0x5F0A, 1), b.value(0x5F0A, 1)), (Some(1), Some(2)));
             } else {
-                assert_eq!(a.default_value(pos, 7), b.default_value(pos, 7), "{e:?}");
+                assert_eq!(a.default_of(e, 7), b.default_of(e, 7), "{e:?}");
             }
         }
         assert_eq!(b.value(0x1800, 1), Some(0x182));

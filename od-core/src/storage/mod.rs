@@ -160,7 +160,7 @@ impl Storage {
             }
             self.stored[k] = value;
             let bit = 1u64 << k;
-            if value == od.default_value(pos, node_id) {
+            if value == od.default_of(e, node_id) {
                 self.at_default |= bit;
             } else {
                 self.at_default &= !bit;
@@ -283,18 +283,18 @@ impl Storage {
         // The pending entries first: the "+ node-ID" defaults use the node-ID the reset activates.
         for (pos, e) in od.table().iter().enumerate() {
             if is_pending(e) && restored(e) {
-                od.set(pos, od.default_value(pos, 0));
+                od.set(pos, od.default_of(e, 0));
             }
         }
         let id = pending(od, CoreHook::PendingNodeId).map(|v| v as u8).filter(|v| (1..=127).contains(v));
         let id = id.unwrap_or(node_id);
         for (k, pos, e) in user_entries(od.table()) {
             let value = if restored(e) {
-                od.default_value(pos, id)
+                od.default_of(e, id)
             } else if !groups.contains(e.group) || is_pending(e) || is_log(e) {
                 continue;
             } else if self.at_default & (1 << k) != 0 {
-                od.default_value(pos, id)
+                od.default_of(e, id)
             } else {
                 self.stored[k]
             };
@@ -397,7 +397,7 @@ pub(crate) fn merge_into(
                 || (e.group == Group::Factory && !stored.is_some_and(|r| r.fits(e)));
             let record = if take {
                 let value = od.get(pos);
-                (value != od.default_value(pos, node_id)).then(|| Record::of(e, value))
+                (value != od.default_of(e, node_id)).then(|| Record::of(e, value))
             } else {
                 stored.filter(|r| r.fits(e)).copied()
             };
