@@ -926,6 +926,20 @@ mod tests {
         assert_eq!(Entry::record(0x1018, "R", 4, Access::Const).default(), Default::Value(4));
     }
 
+    #[test]
+    fn a_factory_node_id_replaces_the_marked_default_only() {
+        static F: &[Entry] = &[
+            Entry::member(0x1800, 1, "COB-ID", DataType::Unsigned32, Access::Rw, 0).plus_node_id(0x180),
+            Entry::var(0x5F0A, "Node-ID", DataType::Unsigned8, Access::Rw, 1).range(1, 127).factory_node_id(),
+        ];
+        let declared = Od::new(F, 1);
+        assert_eq!((declared.get(0), declared.get(1), declared.factory_node_id()), (0x181, 1, None));
+        let second = Od::with_factory_node_id(F, 2, Some(2));
+        assert_eq!((second.get(0), second.get(1), second.factory_node_id()), (0x182, 2, Some(2)));
+        assert_eq!((second.default_of(&F[0], 9), second.default_of(&F[1], 9)), (0x189, 2));
+        assert_eq!((F[1].default(), F[1].default_value(9), F[1].limits()), (Default::Value(1), 1, Some((1, 127))));
+    }
+
     mod limits {
         extern crate std;
         use super::*;
