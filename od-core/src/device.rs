@@ -51,6 +51,13 @@ pub trait Device {
     /// The device's dictionary, sorted by (index, sub).
     fn table(&self) -> &'static [Entry];
 
+    /// The node-ID this device variant ships with when it is not the one its table declares:
+    /// the default of the entry marked [`crate::od::Entry::factory_node_id`] (what a 1011h
+    /// restore and a blank flash give). `None` (the default): the declared one.
+    fn factory_node_id(&self) -> Option<u8> {
+        None
+    }
+
     /// The coding of the pending bit-rate entry (hooked `PendingBitrate`) as (code, rate).
     fn bitrate_codes(&self) -> &'static [(u32, Bitrate)] {
         crate::bitrate::SIKO_CODES

@@ -112,7 +112,7 @@ mod tests {
             .into_iter()
             .flat_map(move |model| turns.into_iter().map(move |turns| wv5800m::table_of(Variant { model, turns })));
         let mr = turns.into_iter().map(wv58mr::table::table_of);
-        [sgh10::TABLE, sgh50::TABLE, sgh50::TABLE_SECOND, ap10t::table::TABLE].into_iter().chain(wv).chain(mr)
+        [sgh10::TABLE, sgh50::TABLE, ap10t::table::TABLE].into_iter().chain(wv).chain(mr)
     }
 
     /// The reference: a plain search of the sorted table.

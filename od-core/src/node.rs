@@ -143,7 +143,8 @@ impl<D: CanopenDevice> Node<D> {
     }
 
     fn power_on(device: D, loaded: &Loaded, fallback_node_id: u8) -> Node<D> {
-        let (od, storage, node_id) = storage::power_on(device.table(), loaded, fallback_node_id);
+        let (od, storage, node_id) =
+            storage::power_on_as(device.table(), device.factory_node_id(), loaded, fallback_node_id);
         let pending = pending_bitrate(&device, &od);
         let scan = match pending {
             None if storage::pending(&od, CoreHook::PendingBitrate).is_some() => Scan::new(device.auto_bitrates()),
@@ -649,7 +650,7 @@ fn sdo_cob_ids(ctx: &mut Context) {
     let id = ctx.node_id;
     for (pos, e) in ctx.od.table().iter().enumerate() {
         if e.group == Group::None && e.is_node_id_relative() {
-            ctx.od.set(pos, e.default_value(id));
+            ctx.od.set(pos, ctx.od.default_of(e, id));
         }
     }
 }

@@ -250,6 +250,9 @@ const LIMITED: u8 = 1 << 2;
 const PLUS_NODE_ID: u8 = 1 << 3;
 /// `data` holds a VISIBLE_STRING's bytes, NUL-padded.
 const STRING: u8 = 1 << 4;
+/// The default is the [`Od`]'s factory node-ID when it has one ([`Entry::factory_node_id`]),
+/// else `data[0..4]`.
+const FACTORY_NODE_ID: u8 = 1 << 5;
 
 // Every table lives in the firmware's flash, about a hundred entries per device: an entry that
 // grows past 22 bytes on the 32-bit target should be a decision, not an accident. Without
@@ -517,6 +520,28 @@ impl Entry {
         self
     }
 
+    /// Marks the entry whose default is the node-ID the device ships with (the pending
+    /// node-ID): an [`Od`] built for a device variant with a factory node-ID of its own
+    /// ([`Od::with_factory_node_id`]) takes that as the default instead of the declared one, so
+    /// that variants differing only in it share one table (the SGH50's two encoders).
+    pub const fn factory_node_id(mut self) -> Entry {
+        assert!(!self.is_string(), "a string's default is its value");
+        self.flags |= FACTORY_NODE_ID;
+        self
+    }
+
+    /// The default for a node with this node-ID in a dictionary whose factory node-ID is
+    /// `factory` (0: none, the declared default): [`Entry::default_value`] but for an entry
+    /// marked [`Entry::factory_node_id`]. What [`Od::default_of`] answers.
+    #[inline(always)]
+    pub const fn default_value_in(&self, node_id: u8, factory: u8) -> u32 {
+        if self.flags & FACTORY_NODE_ID != 0 && factory != 0 {
+            factory as u32
+        } else {
+            self.default_value(node_id)
+        }
+    }
+
     /// Is the default a base plus the node-ID ([`Default::PlusNodeId`])? What the firmware's
     /// paths ask instead of matching [`Entry::default`], which checks a string as UTF-8.
     pub const fn is_node_id_relative(&self) -> bool {
@@ -597,6 +622,9 @@ pub struct Od {
     table: &'static [Entry],
     lookup: Lookup,
     values: [u32; MAX_ENTRIES],
+    /// The node-ID the device variant ships with, the default of an entry marked
+    /// [`Entry::factory_node_id`]; 0 when the declared default is it.
+    factory: u8,
 }
 
 impl Od {
@@ -605,12 +633,20 @@ impl Od {
     /// Panics (at start-up, never on the bus) if the table is unsorted or too large: a
     /// declaration bug every device test catches.
     pub fn new(table: &'static [Entry], node_id: u8) -> Od {
+        Od::with_factory_node_id(table, node_id, None)
+    }
+
+    /// [`Od::new`] for a device variant that ships with node-ID `factory` rather than the
+    /// table's declared one: the default of the entry marked [`Entry::factory_node_id`] (the
+    /// SGH50 redundant version's second encoder: 2). `None` keeps the declared default.
+    pub fn with_factory_node_id(table: &'static [Entry], node_id: u8, factory: Option<u8>) -> Od {
         assert!(table.len() <= MAX_ENTRIES, "dictionary larger than MAX_ENTRIES");
         assert!(
             table.windows(2).all(|w| (w[0].index, w[0].sub) < (w[1].index, w[1].sub)),
             "dictionary not sorted by (index, sub)"
         );
-        let mut od = Od { table, lookup: Lookup::new(table), values: [0; MAX_ENTRIES] };
+        let factory = factory.unwrap_or(0);
+        let mut od = Od { table, lookup: Lookup::new(table), values: [0; MAX_ENTRIES], factory };
         od.load_defaults(|_| true, node_id);
         od
     }
@@ -672,11 +708,25 @@ impl Od {
         }
     }
 
+    /// The default of `e`, one of this dictionary's entries, for a node with this node-ID: the
+    /// declared one ([`Entry::default_value`]), or this dictionary's factory node-ID for the
+    /// entry marked [`Entry::factory_node_id`].
+    #[inline(never)]
+    pub fn default_of(&self, e: &Entry, node_id: u8) -> u32 {
+        e.default_value_in(node_id, self.factory)
+    }
+
+    /// The node-ID the device variant ships with if it is not the table's declared one
+    /// ([`Od::with_factory_node_id`]).
+    pub fn factory_node_id(&self) -> Option<u8> {
+        (self.factory != 0).then_some(self.factory)
+    }
+
     /// Resets every entry `select` picks to its default for `node_id`.
     pub fn load_defaults(&mut self, select: impl Fn(&Entry) -> bool, node_id: u8) {
         for (pos, e) in self.table.iter().enumerate() {
             if select(e) {
-                self.values[pos] = e.default_value(node_id);
+                self.values[pos] = e.default_value_in(node_id, self.factory);
             }
         }
     }
@@ -874,6 +924,20 @@ mod tests {
             assert_eq!((e.kind(), e.object_type(), e.limits()), (kind, object_type, None), "{e:?}");
         }
         assert_eq!(Entry::record(0x1018, "R", 4, Access::Const).default(), Default::Value(4));
+    }
+
+    #[test]
+    fn a_factory_node_id_replaces_the_marked_default_only() {
+        static F: &[Entry] = &[
+            Entry::member(0x1800, 1, "COB-ID", DataType::Unsigned32, Access::Rw, 0).plus_node_id(0x180),
+            Entry::var(0x5F0A, "Node-ID", DataType::Unsigned8, Access::Rw, 1).range(1, 127).factory_node_id(),
+        ];
+        let declared = Od::new(F, 1);
+        assert_eq!((declared.get(0), declared.get(1), declared.factory_node_id()), (0x181, 1, None));
+        let second = Od::with_factory_node_id(F, 2, Some(2));
+        assert_eq!((second.get(0), second.get(1), second.factory_node_id()), (0x182, 2, Some(2)));
+        assert_eq!((second.default_of(&F[0], 9), second.default_of(&F[1], 9)), (0x189, 2));
+        assert_eq!((F[1].default(), F[1].default_value(9), F[1].limits()), (Default::Value(1), 1, Some((1, 127))));
     }
 
     mod limits {

@@ -937,7 +937,7 @@ impl Rig {
         for (pos, e) in core.od.table().iter().enumerate() {
             if selected(e, mask) {
                 let v = core.od.get(pos);
-                let x = if v == e.default_value(core.node_id) { Expected::Default } else { Expected::Value(v) };
+                let x = if v == core.od.default_of(e, core.node_id) { Expected::Default } else { Expected::Value(v) };
                 self.expected.insert((e.index, e.sub), x);
             }
         }
@@ -1041,7 +1041,7 @@ impl Rig {
         for (pos, e) in core.od.table().iter().enumerate() {
             if let Some(x) = self.expected.get(&(e.index, e.sub)) {
                 let want = match *x {
-                    Expected::Default => e.default_value(core.node_id),
+                    Expected::Default => core.od.default_of(e, core.node_id),
                     Expected::Value(v) => v,
                 };
                 ensure!(

@@ -23,7 +23,7 @@ fn images() -> Vec<Spec> {
     vec![
         ("sgh10-node10.bin", sgh10::TABLE, Some(10), Some(1_000_010)),
         ("sgh50-node20.bin", sgh50::TABLE, Some(20), Some(1_000_020)),
-        ("sgh50-node21.bin", sgh50::TABLE_SECOND, Some(21), Some(1_000_021)),
+        ("sgh50-node21.bin", sgh50::TABLE, Some(21), Some(1_000_021)),
         ("wv5800m-node30.bin", wv, Some(30), Some(1_000_030)),
         ("ap10t-node40.bin", ap10t::table::TABLE, Some(40), None),
         ("wv58mr-serial1000050.bin", mr, None, Some(1_000_050)),

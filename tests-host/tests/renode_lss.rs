@@ -24,7 +24,7 @@ fn the_sgh50_pair_is_unconfigured_by_lss_and_found_by_fastscan() {
     let mut bus = Bus::new();
     // The serial numbers sgh50.resc's unique IDs give (renode_files.rs checks them).
     bus.add(channel(sgh50::TABLE, 1, 0x6255_2812));
-    bus.add(channel(sgh50::TABLE_SECOND, 2, 0xF9F0_647D));
+    bus.add(channel(sgh50::TABLE, 2, 0xF9F0_647D));
     bus.expect(0x701, &[0x00]);
     bus.expect(0x702, &[0x00]);
     bus.expect_silence();

@@ -57,8 +57,11 @@ fn two_nodes_boot_with_node_ids_1_and_2_and_identical_identity_but_serial() {
     // Each measures on its own: both see the same wire.
     assert_eq!((a.value(0x6020, 1), b.value(0x6020, 1)), (Some(510), Some(510)));
     // The second encoder's factory default of 5F0Ah.01 is 2 (a restore keeps it off node 1).
-    let table = Sgh50::new(Variant::Redundant(Channel::Second)).table();
-    assert_eq!(table.as_ptr(), sgh50::TABLE_SECOND.as_ptr());
+    // One table for both: the second's dictionary takes 2 as its factory node-ID.
+    let second = Sgh50::new(Variant::Redundant(Channel::Second));
+    assert_eq!((second.table().as_ptr(), second.factory_node_id()), (sgh50::TABLE.as_ptr(), Some(2)));
+    let e = b.entry(b.pos(0x5F0A, 1).unwrap());
+    assert_eq!((a.default_of(e, 0), b.default_of(e, 0)), (1, 2));
 }
 
 #[test]

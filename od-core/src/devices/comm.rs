@@ -561,7 +561,8 @@ pub const fn node_id_and_bitrate(s: &NodeIdAndBitrate) -> Rows {
         Entry::member(0x5F0A, 1, "Node-ID", DataType::Unsigned8, Access::Rw, s.node_id as u32)
             .range(s.node_ids.0 as i64, s.node_ids.1 as i64)
             .group(MANUF)
-            .hook(core(CoreHook::PendingNodeId)),
+            .hook(core(CoreHook::PendingNodeId))
+            .factory_node_id(),
     );
     if let Some(a) = s.auto_id {
         r.push(

@@ -6,7 +6,9 @@
 //! The redundant version is two encoders in one housing, each a complete node of this
 //! firmware: factory node-IDs 1 and 2 and their own serial numbers, which is what LSS tells
 //! them apart by (vendor, product code and revision are equal). Each encoder's factory default
-//! of 5F0Ah.01 is its shipping node-ID, so a 1011h restore never puts both on node 1.
+//! of 5F0Ah.01 is its shipping node-ID, so a 1011h restore never puts both on node 1: both
+//! share one table whose 5F0Ah.01 is marked [`Entry::factory_node_id`], the second encoder's
+//! dictionary taking 2 for it ([`Device::factory_node_id`]).
 //!
 //! The behaviour is the linear CiA 406 encoder of [`crate::encoder::linear`] with the SGH50's
 //! measuring range; the SGH50 manual lists no speed EMCY.
@@ -59,7 +61,7 @@ const PROFILE: Profile = Profile {
 /// TPDO1 and TPDO2 both map the position (6020h.01) and the speed (6030h.01).
 const TPDO_MAPPING: [u32; 2] = [0x6020_0120, 0x6030_0110];
 
-/// The SGH50 dictionary with `node_id` as the factory default of 5F0Ah.01.
+/// The SGH50 dictionary with `node_id` as the declared default of 5F0Ah.01.
 const fn table(node_id: u8) -> [Entry; ENTRIES] {
     comm::join(&[
         comm::rows(&PROFILE).as_slice(),
@@ -132,13 +134,11 @@ const fn table(node_id: u8) -> [Entry; ENTRIES] {
 }
 
 static TABLE_1: [Entry; ENTRIES] = table(DEFAULT_NODE_ID);
-static TABLE_2: [Entry; ENTRIES] = table(SECOND_NODE_ID);
 
-/// The SGH50 dictionary (single version, and the redundant version's first encoder), sorted by
-/// (index, sub).
+/// The SGH50 dictionary, sorted by (index, sub): both versions and both encoders of the
+/// redundant one. 5F0Ah.01 is declared with default 1; the second encoder's dictionary has 2
+/// as its factory node-ID ([`Variant::default_node_id`], [`Device::factory_node_id`]).
 pub static TABLE: &[Entry] = &TABLE_1;
-/// The dictionary of the redundant version's second encoder: 5F0Ah.01 defaults to 2.
-pub static TABLE_SECOND: &[Entry] = &TABLE_2;
 
 /// Is the internal CAN bus termination switched on (D-SGH50-5)? 5F09h = 1 switches it on, 0
 /// off, at once (the SDO write is the switch), and the value the node powers on or resets with
@@ -215,9 +215,13 @@ impl Sgh50 {
 
 impl Device for Sgh50 {
     fn table(&self) -> &'static [Entry] {
+        TABLE
+    }
+
+    fn factory_node_id(&self) -> Option<u8> {
         match self.variant {
-            Variant::Redundant(Channel::Second) => TABLE_SECOND,
-            _ => TABLE,
+            Variant::Redundant(Channel::Second) => Some(SECOND_NODE_ID),
+            _ => None,
         }
     }
 
@@ -280,14 +284,19 @@ mod tests {
 
     #[test]
     fn the_second_encoder_differs_only_in_its_node_id_default() {
-        for (a, b) in TABLE.iter().zip(TABLE_SECOND) {
-            if (a.index, a.sub) == (0x5F0A, 1) {
-                assert_eq!((a.default_value(0), b.default_value(0)), (1, 2));
+        let (first, second) =
+            (Sgh50::new(Variant::Redundant(Channel::First)), Sgh50::new(Variant::Redundant(Channel::Second)));
+        assert_eq!(first.table().as_ptr(), second.table().as_ptr(), "one table");
+        let a = Od::with_factory_node_id(TABLE, DEFAULT_NODE_ID, first.factory_node_id());
+        let b = Od::with_factory_node_id(TABLE, SECOND_NODE_ID, second.factory_node_id());
+        for e in TABLE {
+            if (e.index, e.sub) == (0x5F0A, 1) {
+                assert_eq!((a.default_of(e, 0), b.default_of(e, 0)), (1, 2));
+                assert_eq!((a.value(0x5F0A, 1), b.value(0x5F0A, 1)), (Some(1), Some(2)));
             } else {
-                assert_eq!(a, b);
+                assert_eq!(a.default_of(e, 7), b.default_of(e, 7), "{e:?}");
             }
         }
-        let od = Od::new(TABLE_SECOND, SECOND_NODE_ID);
-        assert_eq!(od.value(0x1800, 1), Some(0x182));
+        assert_eq!(b.value(0x1800, 1), Some(0x182));
     }
 }

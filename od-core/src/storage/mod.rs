@@ -161,7 +161,7 @@ impl Storage {
             }
             self.stored[k] = value;
             let bit = 1u64 << k;
-            if value == e.default_value(node_id) {
+            if value == od.default_of(e, node_id) {
                 self.at_default |= bit;
             } else {
                 self.at_default &= !bit;
@@ -178,13 +178,24 @@ impl Storage {
 /// Panics (at start-up, never on the bus) if the dictionary declares more than
 /// [`MAX_STORED`] user-stored entries: a declaration bug every device test catches.
 pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -> (Od, Storage, u8) {
+    power_on_as(table, None, loaded, fallback)
+}
+
+/// [`power_on`] for a device variant that ships with node-ID `factory` rather than the
+/// table's declared one ([`Od::with_factory_node_id`]).
+pub(crate) fn power_on_as(
+    table: &'static [Entry],
+    factory: Option<u8>,
+    loaded: &Loaded,
+    fallback: u8,
+) -> (Od, Storage, u8) {
     let image = loaded.image();
     let node_id = table
         .iter()
         .find(|e| e.hook == Hook::Core(CoreHook::PendingNodeId))
-        .map(|e| image.and_then(|i| i.value_for(e)).unwrap_or(e.default_value(0)) as u8)
+        .map(|e| image.and_then(|i| i.value_for(e)).unwrap_or(e.default_value_in(0, factory.unwrap_or(0))) as u8)
         .unwrap_or(fallback);
-    let mut od = Od::new(table, node_id);
+    let mut od = Od::with_factory_node_id(table, node_id, factory);
     if let Some(image) = image {
         for (pos, e) in table.iter().enumerate() {
             if let Some(v) = image.value_for(e) {
@@ -275,7 +286,7 @@ impl Storage {
         for &pos in slots {
             let e = od.entry(pos as usize);
             if is_pending(e) && restored(e) {
-                od.set(pos as usize, e.default_value(0));
+                od.set(pos as usize, od.default_of(e, 0));
             }
         }
         let id = pending(od, CoreHook::PendingNodeId).map(|v| v as u8).filter(|v| (1..=127).contains(v));
@@ -283,11 +294,11 @@ impl Storage {
         for (k, &pos) in slots.iter().enumerate() {
             let (pos, e) = (pos as usize, od.entry(pos as usize));
             let value = if restored(e) {
-                e.default_value(id)
+                od.default_of(e, id)
             } else if !groups.contains(e.group) || is_pending(e) || is_log(e) {
                 continue;
             } else if self.at_default & (1 << k) != 0 {
-                e.default_value(id)
+                od.default_of(e, id)
             } else {
                 self.stored[k]
             };
@@ -400,7 +411,7 @@ pub(crate) fn merge_into(
                 Some(r) if !take && (e.group != Group::Factory || r.fits(e)) => (r.value, r.fits(e)),
                 _ if take || e.group == Group::Factory => {
                     let value = od.get(pos);
-                    (value, value != e.default_value(node_id))
+                    (value, value != od.default_of(e, node_id))
                 }
                 _ => (0, false),
             };

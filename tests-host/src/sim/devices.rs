@@ -371,7 +371,7 @@ fn plan(spec: &DeviceSpec, position: usize) -> Result<Vec<Channel>, String> {
             };
             Ok(vec![
                 ch(sgh50::Channel::First, 0, "SGH50-A", "a", sgh50::TABLE),
-                ch(sgh50::Channel::Second, 1, "SGH50-B", "b", sgh50::TABLE_SECOND),
+                ch(sgh50::Channel::Second, 1, "SGH50-B", "b", sgh50::TABLE),
             ])
         }
         Kind::Wv5800m => {
