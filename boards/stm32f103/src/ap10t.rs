@@ -12,10 +12,9 @@
 use board_plan::keys::{Change, Debouncer};
 use board_plan::lcd::{frame, from_screen, Screen, FRAME_LEN, INIT};
 use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
-use embassy_stm32::mode::Blocking;
+use embassy_stm32::pac::{self, gpio::vals, spi::vals as spi_vals};
 use embassy_stm32::peripherals::{PB12, PB13, PB15, SPI2};
-use embassy_stm32::spi::{self, Spi, MODE_0};
-use embassy_stm32::time::Hertz;
+use embassy_stm32::rcc::enable_and_reset_without_stop;
 use embassy_stm32::Peri;
 
 use od_core::devices::ap10t::{Ap10t, Key, View};
@@ -29,43 +28,67 @@ use crate::Io;
 /// A whole display (18 bytes) takes 1 ms.
 pub const LCD_SPI_HZ: u32 = 140_625;
 
+/// SPI_CR1.BR for [`LCD_SPI_HZ`]: the clock divided by 2 << 7 = 256.
+const LCD_SPI_BR: u8 = 7;
+
 /// The LCD driver on SPI2, transmit only: CS = NSS PB12, WR = SCK PB13, DATA = MOSI PB15 (the
-/// driver's RD is not connected; PB14 stays free).
+/// driver's RD is not connected; PB14 stays free). The SPI's registers are written directly
+/// (master, mode 0, 8 bits, most significant bit first, APB1 / 256, software NSS): the same
+/// configuration and byte sequence as Embassy's blocking transmit-only driver, in a fraction of
+/// its code.
 pub struct Lcd {
-    spi: Spi<'static, Blocking, spi::mode::Master>,
     nss: Output<'static>,
 }
 
 impl Lcd {
     /// The driver, deselected.
     pub fn new(
-        spi: Peri<'static, SPI2>,
+        _spi: Peri<'static, SPI2>,
         nss: Peri<'static, PB12>,
-        sck: Peri<'static, PB13>,
-        mosi: Peri<'static, PB15>,
+        _sck: Peri<'static, PB13>,
+        _mosi: Peri<'static, PB15>,
     ) -> Lcd {
-        let mut config = spi::Config::default();
-        config.mode = MODE_0;
-        config.frequency = Hertz(LCD_SPI_HZ);
-        Lcd { spi: Spi::new_blocking_txonly(spi, sck, mosi, config), nss: Output::new(nss, Level::High, Speed::Low) }
+        let nss = Output::new(nss, Level::High, Speed::Low);
+        enable_and_reset_without_stop::<SPI2>();
+        // PB13 (SCK) and PB15 (MOSI): alternate function push-pull, 50 MHz.
+        pac::GPIOB.cr(1).modify(|w| {
+            for pin in [5, 7] {
+                w.set_mode(pin, vals::Mode::OUTPUT50MHZ);
+                w.set_cnf_out(pin, vals::CnfOut::ALT_PUSH_PULL);
+            }
+        });
+        pac::SPI2.cr1().write(|w| {
+            w.set_mstr(spi_vals::Mstr::MASTER);
+            w.set_br(spi_vals::Br::from_bits(LCD_SPI_BR));
+            w.set_ssm(true);
+            w.set_ssi(true);
+            w.set_spe(true);
+        });
+        Lcd { nss }
     }
 
     /// Starts the driver (oscillator, bias, display on).
-    pub fn init(&mut self) -> Result<(), spi::Error> {
+    pub fn init(&mut self) {
         self.write(&INIT)
     }
 
     /// Shows `screen` (writes the driver's whole display RAM).
-    pub fn show(&mut self, screen: &Screen) -> Result<(), spi::Error> {
+    pub fn show(&mut self, screen: &Screen) {
         self.write(&frame(screen))
     }
 
-    /// One transfer with CS low.
-    fn write(&mut self, bytes: &[u8]) -> Result<(), spi::Error> {
+    /// One transfer with CS low: each byte written when the transmit buffer is free, the
+    /// transfer over when its echo has arrived (the F1's BSY flag clears too early).
+    fn write(&mut self, bytes: &[u8]) {
+        let spi = pac::SPI2;
         self.nss.set_low();
-        let result = self.spi.blocking_write(bytes);
+        for &b in bytes {
+            while !spi.sr().read().txe() {}
+            spi.dr().write(|w| w.set_dr(b as u16));
+            while !spi.sr().read().rxne() {}
+            let _ = spi.dr().read();
+        }
         self.nss.set_high();
-        result
     }
 }
 
@@ -137,9 +160,9 @@ pub struct Panel {
 }
 
 impl Panel {
-    /// The panel, the LCD started (a driver that does not answer is retried at every show).
+    /// The panel, the LCD started.
     pub fn new(mut lcd: Lcd, keys: Keys, leds: Leds) -> Panel {
-        let _ = lcd.init();
+        lcd.init();
         Panel { lcd, keys, leds, shown: None }
     }
 }
@@ -165,7 +188,8 @@ impl Io<Ap10t> for Panel {
         let View { screen, leds, .. } = device.view(now);
         // Comparing the 18 bytes for the driver is less code than comparing views.
         let bytes = frame(&from_screen(&screen));
-        if self.shown != Some(bytes) && self.lcd.write(&bytes).is_ok() {
+        if self.shown != Some(bytes) {
+            self.lcd.write(&bytes);
             self.shown = Some(bytes);
         }
         self.leds.set(false, leds.left.green, leds.left.red);
