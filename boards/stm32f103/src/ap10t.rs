@@ -11,9 +11,9 @@
 
 use board_plan::keys::{Change, Debouncer};
 use board_plan::lcd::{frame, from_screen, Screen, FRAME_LEN, INIT};
-use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
+use embassy_stm32::gpio::{AnyPin, Level, Output, Speed};
 use embassy_stm32::pac::{self, gpio::vals, spi::vals as spi_vals};
-use embassy_stm32::peripherals::{PB12, PB13, PB15, SPI2};
+use embassy_stm32::peripherals::{PA0, PA1, PA2, PA3, PB12, PB13, PB15, SPI2};
 use embassy_stm32::rcc::enable_and_reset_without_stop;
 use embassy_stm32::Peri;
 
@@ -93,34 +93,34 @@ impl Lcd {
 }
 
 /// The four keys (PA0 front key, PA1 "←", PA2 "*", PA3 "↑"; pull-ups, a pressed key reads
-/// low), debounced.
+/// low), debounced. The four pins are configured and read together through port A's registers.
 pub struct Keys {
-    pins: [Input<'static>; 4],
     debouncer: Debouncer,
 }
 
 impl Keys {
-    /// The keys, all released.
-    pub fn new(pins: [Peri<'static, AnyPin>; 4]) -> Keys {
-        Keys { pins: pins.map(|p| Input::new(p, Pull::Up)), debouncer: Debouncer::new() }
+    /// The keys, all released: PA0..PA3 inputs with pull-up.
+    pub fn new(_pins: (Peri<'static, PA0>, Peri<'static, PA1>, Peri<'static, PA2>, Peri<'static, PA3>)) -> Keys {
+        pac::GPIOA.cr(0).modify(|w| {
+            for pin in 0..4 {
+                w.set_mode(pin, vals::Mode::INPUT);
+                w.set_cnf_in(pin, vals::CnfIn::PULL);
+            }
+        });
+        // ODR = 1 selects the pull-up.
+        pac::GPIOA.bsrr().write(|w| w.0 = 0xF);
+        Keys { debouncer: Debouncer::new() }
     }
 
     /// Scans the keys at `now` (every sample period); returns the change of the debounced keys
     /// (bits as `board_plan::keys` orders them), if any.
     pub fn scan(&mut self, now: od_core::Instant) -> Option<Change> {
-        let raw = self.raw();
-        self.debouncer.scan(raw, now)
+        self.debouncer.scan(Keys::raw(), now)
     }
 
-    /// The raw levels as pressed keys: bit `k` set = key `k` reads low now.
-    fn raw(&self) -> u8 {
-        let mut bits = 0;
-        for (k, pin) in self.pins.iter().enumerate() {
-            if pin.is_low() {
-                bits |= 1 << k;
-            }
-        }
-        bits
+    /// The raw levels as pressed keys: bit `k` set = key `k` (PA`k`) reads low now.
+    fn raw() -> u8 {
+        !pac::GPIOA.idr().read().0 as u8 & 0xF
     }
 }
 
@@ -213,7 +213,7 @@ pub fn take() -> Board {
         mcu: Mcu::new(p.CAN, p.PA11, p.PA12, p.PB5, p.FLASH, p.IWDG),
         io: Panel::new(
             Lcd::new(p.SPI2, p.PB12, p.PB13, p.PB15),
-            Keys::new([p.PA0.into(), p.PA1.into(), p.PA2.into(), p.PA3.into()]),
+            Keys::new((p.PA0, p.PA1, p.PA2, p.PA3)),
             Leds::new([p.PB0.into(), p.PB1.into(), p.PB10.into(), p.PB11.into()]),
         ),
     }
