@@ -11,9 +11,9 @@
 
 use board_plan::keys::{Change, Debouncer};
 use board_plan::lcd::{frame, from_screen, Screen, FRAME_LEN, INIT};
-use embassy_stm32::gpio::{AnyPin, Level, Output, Speed};
-use embassy_stm32::pac::{self, gpio::vals, spi::vals as spi_vals};
-use embassy_stm32::peripherals::{PA0, PA1, PA2, PA3, PB12, PB13, PB15, SPI2};
+use embassy_stm32::gpio::{Level, Output, Speed};
+use embassy_stm32::pac::{self, spi::vals as spi_vals};
+use embassy_stm32::peripherals::{PA0, PA1, PA2, PA3, PB0, PB1, PB10, PB11, PB12, PB13, PB15, SPI2};
 use embassy_stm32::rcc::enable_and_reset_without_stop;
 use embassy_stm32::Peri;
 
@@ -50,13 +50,8 @@ impl Lcd {
     ) -> Lcd {
         let nss = Output::new(nss, Level::High, Speed::Low);
         enable_and_reset_without_stop::<SPI2>();
-        // PB13 (SCK) and PB15 (MOSI): alternate function push-pull, 50 MHz.
-        pac::GPIOB.cr(1).modify(|w| {
-            for pin in [5, 7] {
-                w.set_mode(pin, vals::Mode::OUTPUT50MHZ);
-                w.set_cnf_out(pin, vals::CnfOut::ALT_PUSH_PULL);
-            }
-        });
+        // PB13 (SCK) and PB15 (MOSI): alternate function push-pull at 50 MHz (MODE 11, CNF 10).
+        pac::GPIOB.cr(1).modify(|w| w.0 = w.0 & !0xF0F0_0000 | 0xB0B0_0000);
         pac::SPI2.cr1().write(|w| {
             w.set_mstr(spi_vals::Mstr::MASTER);
             w.set_br(spi_vals::Br::from_bits(LCD_SPI_BR));
@@ -101,12 +96,8 @@ pub struct Keys {
 impl Keys {
     /// The keys, all released: PA0..PA3 inputs with pull-up.
     pub fn new(_pins: (Peri<'static, PA0>, Peri<'static, PA1>, Peri<'static, PA2>, Peri<'static, PA3>)) -> Keys {
-        pac::GPIOA.cr(0).modify(|w| {
-            for pin in 0..4 {
-                w.set_mode(pin, vals::Mode::INPUT);
-                w.set_cnf_in(pin, vals::CnfIn::PULL);
-            }
-        });
+        // Input with pull-up or pull-down (MODE 00, CNF 10) for PA0..PA3 in CRL.
+        pac::GPIOA.cr(0).modify(|w| w.0 = w.0 & !0xFFFF | 0x8888);
         // ODR = 1 selects the pull-up.
         pac::GPIOA.bsrr().write(|w| w.0 = 0xF);
         Keys { debouncer: Debouncer::new() }
@@ -124,22 +115,29 @@ impl Keys {
     }
 }
 
-/// The two bi-colour LEDs: LED 1 green PB0 / red PB1, LED 2 green PB10 / red PB11, active high.
-pub struct Leds {
-    pins: [Output<'static>; 4],
-}
+/// The two bi-colour LEDs: LED 1 green PB0 / red PB1, LED 2 green PB10 / red PB11, active high,
+/// switched together through port B's set/reset register.
+pub struct Leds(());
+
+/// The LEDs' pins on port B (LED 1 green, red, LED 2 green, red) as a mask.
+const LED_MASK: u32 = 1 << 0 | 1 << 1 | 1 << 10 | 1 << 11;
 
 impl Leds {
-    /// The LEDs, off.
-    pub fn new(pins: [Peri<'static, AnyPin>; 4]) -> Leds {
-        Leds { pins: pins.map(|p| Output::new(p, Level::Low, Speed::Low)) }
+    /// The LEDs, off: push-pull outputs, 2 MHz.
+    pub fn new(_pins: (Peri<'static, PB0>, Peri<'static, PB1>, Peri<'static, PB10>, Peri<'static, PB11>)) -> Leds {
+        let gpio = pac::GPIOB;
+        gpio.brr().write(|w| w.0 = LED_MASK);
+        // Push-pull output at 2 MHz (MODE 10, CNF 00): PB0, PB1 in CRL, PB10, PB11 in CRH.
+        gpio.cr(0).modify(|w| w.0 = w.0 & !0xFF | 0x22);
+        gpio.cr(1).modify(|w| w.0 = w.0 & !0xFF00 | 0x2200);
+        Leds(())
     }
 
-    /// Lights LED 1 (`second` false) or LED 2 green, red, both (orange) or none.
-    pub fn set(&mut self, second: bool, green: bool, red: bool) {
-        let base = if second { 2 } else { 0 };
-        self.pins[base].set_level(green.into());
-        self.pins[base + 1].set_level(red.into());
+    /// Lights the elements of `on` (LED 1 green, red, LED 2 green, red) and darkens the others.
+    pub fn set(&mut self, on: [bool; 4]) {
+        let [g1, r1, g2, r2] = on.map(|b| b as u32);
+        let lit = g1 | r1 << 1 | g2 << 10 | r2 << 11;
+        pac::GPIOB.bsrr().write(|w| w.0 = lit | (LED_MASK & !lit) << 16);
     }
 }
 
@@ -192,8 +190,7 @@ impl Io<Ap10t> for Panel {
             self.lcd.write(&bytes);
             self.shown = Some(bytes);
         }
-        self.leds.set(false, leds.left.green, leds.left.red);
-        self.leds.set(true, leds.right.green, leds.right.red);
+        self.leds.set([leds.left.green, leds.left.red, leds.right.green, leds.right.red]);
         device.next_change(now)
     }
 }
@@ -214,7 +211,7 @@ pub fn take() -> Board {
         io: Panel::new(
             Lcd::new(p.SPI2, p.PB12, p.PB13, p.PB15),
             Keys::new((p.PA0, p.PA1, p.PA2, p.PA3)),
-            Leds::new([p.PB0.into(), p.PB1.into(), p.PB10.into(), p.PB11.into()]),
+            Leds::new((p.PB0, p.PB1, p.PB10, p.PB11)),
         ),
     }
 }
