@@ -11,7 +11,6 @@
 
 use board_plan::keys::{Change, Debouncer};
 use board_plan::lcd::{frame, from_screen, Screen, FRAME_LEN, INIT};
-use embassy_stm32::gpio::{Level, Output, Speed};
 use embassy_stm32::pac::{self, spi::vals as spi_vals};
 use embassy_stm32::peripherals::{PA0, PA1, PA2, PA3, PB0, PB1, PB10, PB11, PB12, PB13, PB15, SPI2};
 use embassy_stm32::rcc::enable_and_reset_without_stop;
@@ -36,22 +35,22 @@ const LCD_SPI_BR: u8 = 7;
 /// (master, mode 0, 8 bits, most significant bit first, APB1 / 256, software NSS): the same
 /// configuration and byte sequence as Embassy's blocking transmit-only driver, in a fraction of
 /// its code.
-pub struct Lcd {
-    nss: Output<'static>,
-}
+pub struct Lcd(());
 
 impl Lcd {
     /// The driver, deselected.
     pub fn new(
         _spi: Peri<'static, SPI2>,
-        nss: Peri<'static, PB12>,
+        _nss: Peri<'static, PB12>,
         _sck: Peri<'static, PB13>,
         _mosi: Peri<'static, PB15>,
     ) -> Lcd {
-        let nss = Output::new(nss, Level::High, Speed::Low);
+        // NSS high (deselected) before PB12 becomes an output.
+        pac::GPIOB.bsrr().write(|w| w.0 = 1 << 12);
         enable_and_reset_without_stop::<SPI2>();
-        // PB13 (SCK) and PB15 (MOSI): alternate function push-pull at 50 MHz (MODE 11, CNF 10).
-        pac::GPIOB.cr(1).modify(|w| w.0 = w.0 & !0xF0F0_0000 | 0xB0B0_0000);
+        // PB12 (NSS) push-pull output at 2 MHz (MODE 10, CNF 00), PB13 (SCK) and PB15 (MOSI)
+        // alternate function push-pull at 50 MHz (MODE 11, CNF 10).
+        pac::GPIOB.cr(1).modify(|w| w.0 = w.0 & !0xF0FF_0000 | 0xB0B2_0000);
         pac::SPI2.cr1().write(|w| {
             w.set_mstr(spi_vals::Mstr::MASTER);
             w.set_br(spi_vals::Br::from_bits(LCD_SPI_BR));
@@ -59,7 +58,7 @@ impl Lcd {
             w.set_ssi(true);
             w.set_spe(true);
         });
-        Lcd { nss }
+        Lcd(())
     }
 
     /// Starts the driver (oscillator, bias, display on).
@@ -76,14 +75,14 @@ impl Lcd {
     /// transfer over when its echo has arrived (the F1's BSY flag clears too early).
     fn write(&mut self, bytes: &[u8]) {
         let spi = pac::SPI2;
-        self.nss.set_low();
+        pac::GPIOB.brr().write(|w| w.0 = 1 << 12);
         for &b in bytes {
             while !spi.sr().read().txe() {}
             spi.dr().write(|w| w.set_dr(b as u16));
             while !spi.sr().read().rxne() {}
             let _ = spi.dr().read();
         }
-        self.nss.set_high();
+        pac::GPIOB.bsrr().write(|w| w.0 = 1 << 12);
     }
 }
 
