@@ -364,32 +364,59 @@ impl Mode {
     /// points; here it is blank). The diagnosis shows the first eight entries of `diag` at
     /// most, as many as the panel keeps.
     pub fn screen(self, now: Instant, ctx: &MenuContext, diag: &[DiagEntry]) -> [Row; 2] {
+        const ALL_SEGMENTS: &str = "8.8.8.8.8.8.";
+        // One shape for every mode: a text from the left on the upper row with `value` over it,
+        // and the lower row.
         let baud = |code: u8| Row::right(baud_text(code));
-        let (label, value) = match self {
-            Mode::Normal => return [Row::BLANK; 2],
-            Mode::PowerUp(_) => return [Row::left("8.8.8.8.8.8."); 2],
-            Mode::Info(_) => return [overlay(Row::left("ID"), decimal_row(ctx.node_id as u32)), baud(ctx.baud)],
-            Mode::List(Item::Id) => (Item::Id, decimal_row(ctx.node_id as u32)),
-            Mode::List(Item::Kbaud) => (Item::Kbaud, baud(ctx.baud)),
-            Mode::List(Item::Code) => (Item::Code, Row::BLANK),
-            Mode::EditId(e) => (Item::Id, e.row(now)),
-            Mode::EditCode(e) => (Item::Code, e.row(now)),
-            Mode::Baud(i) => (Item::Kbaud, baud(BAUD_LIST[i as usize % BAUD_LIST.len()])),
+        let mut value = Row::BLANK;
+        let mut lower = Row::BLANK;
+        let text = match self {
+            Mode::Normal => "",
+            Mode::PowerUp(_) => {
+                lower = Row::left(ALL_SEGMENTS);
+                ALL_SEGMENTS
+            }
+            Mode::Info(_) => {
+                value = decimal_row(ctx.node_id as u32);
+                lower = baud(ctx.baud);
+                Item::Id.label()
+            }
+            Mode::List(item) => {
+                lower = match item {
+                    Item::Id => decimal_row(ctx.node_id as u32),
+                    Item::Kbaud => baud(ctx.baud),
+                    Item::Code => Row::BLANK,
+                };
+                item.label()
+            }
+            Mode::EditId(e) => {
+                lower = e.row(now);
+                Item::Id.label()
+            }
+            Mode::EditCode(e) => {
+                lower = e.row(now);
+                Item::Code.label()
+            }
+            Mode::Baud(i) => {
+                lower = baud(BAUD_LIST[i as usize % BAUD_LIST.len()]);
+                Item::Kbaud.label()
+            }
             Mode::Diagnosis(n) => {
                 // The panel keeps eight entries: the error number is one digit.
                 let diag = &diag[..diag.len().min(8)];
                 if diag.is_empty() {
-                    return [Row::left("no Err"), Row::BLANK];
+                    "no Err"
+                } else {
+                    let i = n as usize % diag.len();
+                    let e = diag[i];
+                    value = decimal_row(e.count as u32);
+                    lower = hex_row(e.code);
+                    &"12345678"[i..i + 1]
                 }
-                let i = n as usize % diag.len();
-                let e = diag[i];
-                let mut number = Row::BLANK;
-                number.0[0].ch = b'1' + i as u8;
-                return [overlay(number, decimal_row(e.count as u32)), hex_row(e.code)];
             }
-            Mode::AutoId(_) => return [Row::left("New ID"), Row::BLANK],
+            Mode::AutoId(_) => "New ID",
         };
-        [Row::left(label.label()), value]
+        [overlay(Row::left(text), value), lower]
     }
 
     /// Whether the mode's rows change with the blink clock.
