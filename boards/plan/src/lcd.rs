@@ -185,17 +185,14 @@ pub const fn upside_down(seg: u8) -> u8 {
 /// shown as segment d alone, a low bar that says "something is here".
 pub fn from_screen(screen: &od_core::devices::ap10t::Screen) -> Screen {
     let mut out = Screen::default();
-    for (p, row) in out.rows.iter_mut().enumerate() {
-        for (k, seg) in row.iter_mut().enumerate() {
-            let (g, dp) = if screen.rotated {
-                let cells = &screen.rows[1 - p].0;
-                let dp = k + 1 < DIGITS && cells[DIGITS - 2 - k].dp;
-                (upside_down(glyph(cells[DIGITS - 1 - k].ch).unwrap_or(D)), dp)
-            } else {
-                let c = screen.rows[p].0[k];
-                (glyph(c.ch).unwrap_or(D), c.dp)
-            };
-            *seg = g | if dp { DP } else { 0 };
+    let turned = screen.rotated;
+    for p in 0..ROWS {
+        for k in 0..DIGITS {
+            // The cell shown on physical digit k of row p, and the one after it as read.
+            let (cells, i) = if turned { (&screen.rows[1 - p].0, DIGITS - 1 - k) } else { (&screen.rows[p].0, k) };
+            let g = glyph(cells[i].ch).unwrap_or(D);
+            let (g, dp) = if turned { (upside_down(g), i > 0 && cells[i - 1].dp) } else { (g, cells[i].dp) };
+            out.rows[p][k] = g | if dp { DP } else { 0 };
         }
     }
     out
