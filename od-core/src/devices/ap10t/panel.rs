@@ -393,17 +393,13 @@ impl Panel {
             Mode::Normal => self.set_point_rows(now),
             _ => mode.screen(now, &p.menu(), &self.diag),
         };
-        let (leds, backlight) = match mode {
-            Mode::PowerUp(since) => {
-                let step = power_up_quarter(since, now);
-                let on = |i: u32| step == i;
-                (
-                    Leds { left: Bicolour { green: on(0), red: on(1) }, right: Bicolour { green: on(2), red: on(3) } },
-                    Backlight { white: true, red: true },
-                )
-            }
-            _ => (leds::leds(&p.lights, &self.sps, now), leds::backlight(&p.lights, now)),
+        let (lit, backlight) = match mode {
+            // The power-up test lights the four LED elements one after the other (a quarter
+            // past the last is no element).
+            Mode::PowerUp(since) => (1 << power_up_quarter(since, now).min(4), Backlight { white: true, red: true }),
+            _ => (leds::lit(&p.lights, &self.sps, now), leds::backlight(&p.lights, now)),
         };
+        let leds = Leds::from_bits(lit);
         View { screen: Screen { rows, rotated: p.rotated }, leds, backlight }
     }
 
