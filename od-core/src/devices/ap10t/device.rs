@@ -147,15 +147,15 @@ impl Ap10t {
         }
     }
 
-    /// The panel parameters as the dictionary holds them.
-    fn params(core: &Core) -> Params {
-        let mut p = Params::FACTORY;
+    /// The panel parameters made what the dictionary holds, in place.
+    fn load_params(&mut self, core: &Core) {
+        let p = &mut self.panel.params;
+        *p = Params::FACTORY;
         for (index, sub) in PANEL_OBJECTS {
             if let Some(v) = core.od.value(index, sub) {
                 let _ = p.write(index, sub, v);
             }
         }
-        p
     }
 
     fn ensure_started(&mut self, core: &mut Core, now: Instant) {
@@ -177,7 +177,7 @@ impl Ap10t {
             od.set(a, v);
             od.set(b, v);
         }
-        self.panel.params = Ap10t::params(core);
+        self.load_params(core);
         self.can = CanDiagnosis::default();
         core.od.set_value(0x5000, 0, 0);
         self.operational = false;
@@ -210,7 +210,7 @@ impl Ap10t {
     /// A key was pressed (its debounced edge) at `now`.
     pub fn press(&mut self, core: &mut Core, key: Key, now: Instant) {
         self.ensure_started(core, now);
-        self.panel.params = Ap10t::params(core);
+        self.load_params(core);
         self.load_diagnosis(core);
         let effect = self.panel.press(key, now);
         self.refresh(core);
@@ -234,7 +234,7 @@ impl Ap10t {
             }
         }
         // The menu shows what the dictionary now holds.
-        self.panel.params = Ap10t::params(core);
+        self.load_params(core);
     }
 
     /// A key was released.
