@@ -296,67 +296,99 @@ impl Mode {
     /// [`Mode::press`] in place: the mode becomes the next one; returns what the device must do.
     pub(crate) fn step(&mut self, key: Key, ctx: &MenuContext) -> Option<Effect> {
         let m = KEYMAP;
-        if let Mode::EditId(e) | Mode::EditCode(e) = self {
-            if key == m.digit_select {
-                e.select_left();
-                return None;
-            }
-            if key == m.value_input {
-                e.count_up();
-                return None;
-            }
-        }
         let mut effect = None;
-        let mut set = |e: Effect| effect = Some(e);
-        *self = match *self {
+        // Each mode's keys; a key a mode does not use changes nothing.
+        let next = match self {
             Mode::Info(_) if key == m.parameterize && ctx.config_enable => Mode::List(Item::Id),
             Mode::AutoId(id) if key == m.auto_id => {
-                set(Effect::AutoIdAdopted(id));
+                effect = Some(Effect::AutoIdAdopted(*id));
                 Mode::Normal
             }
-            Mode::List(_) if key == m.back => Mode::Normal,
-            Mode::List(item) if key == m.value_input => Mode::List(item.next()),
-            Mode::List(Item::Id) if key == m.confirm => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
-            Mode::List(Item::Kbaud) if key == m.confirm => {
-                Mode::Baud(BAUD_LIST.iter().position(|&b| b == ctx.baud).unwrap_or(0) as u8)
-            }
-            Mode::List(Item::Code) if key == m.confirm => Mode::EditCode(Entry::new(0, 6)),
-            Mode::EditId(_) if key == m.back => Mode::List(Item::Id),
-            Mode::Baud(_) if key == m.back => Mode::List(Item::Kbaud),
-            Mode::EditCode(_) | Mode::Diagnosis(_) if key == m.back => Mode::List(Item::Code),
-            Mode::EditId(e) if key == m.confirm => match e.value() {
-                v @ 1..=127 => {
-                    set(Effect::SetNodeId(v as u8));
-                    Mode::List(Item::Id)
+            Mode::List(item) => {
+                let item = *item;
+                if key == m.back {
+                    Mode::Normal
+                } else if key == m.value_input {
+                    Mode::List(item.next())
+                } else if key == m.confirm {
+                    match item {
+                        Item::Id => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
+                        Item::Kbaud => Mode::Baud(BAUD_LIST.iter().position(|&b| b == ctx.baud).unwrap_or(0) as u8),
+                        Item::Code => Mode::EditCode(Entry::new(0, 6)),
+                    }
+                } else {
+                    return None;
                 }
-                // Out of 1..=127: not taken, the entry stays for a correction.
-                _ => return None,
-            },
-            Mode::EditCode(e) if key == m.confirm => {
-                let scope = match e.value() {
-                    CODE_RESET_ALL => ResetScope::All,
-                    CODE_RESET_ALL_EXCEPT_BUS => ResetScope::AllExceptBus,
-                    CODE_RESET_BUS => ResetScope::BusOnly,
-                    CODE_DIAGNOSIS => {
-                        *self = Mode::Diagnosis(0);
-                        return None;
-                    }
-                    _ => {
-                        *self = Mode::List(Item::Code);
-                        return None;
-                    }
-                };
-                set(Effect::FactoryReset(scope));
-                Mode::Normal
             }
-            Mode::Baud(i) if key == m.value_input => Mode::Baud((i + 1) % BAUD_LIST.len() as u8),
-            Mode::Baud(i) if key == m.confirm => {
-                set(Effect::SetBaud(BAUD_LIST[i as usize % BAUD_LIST.len()]));
-                Mode::List(Item::Kbaud)
+            Mode::EditId(_) | Mode::EditCode(_) => {
+                let id = matches!(*self, Mode::EditId(_));
+                let (Mode::EditId(e) | Mode::EditCode(e)) = self else { return None };
+                if key == m.digit_select {
+                    e.select_left();
+                    return None;
+                }
+                if key == m.value_input {
+                    e.count_up();
+                    return None;
+                }
+                let item = if id { Item::Id } else { Item::Code };
+                if key == m.back {
+                    Mode::List(item)
+                } else if key != m.confirm {
+                    return None;
+                } else if id {
+                    match e.value() {
+                        v @ 1..=127 => {
+                            effect = Some(Effect::SetNodeId(v as u8));
+                            Mode::List(Item::Id)
+                        }
+                        // Out of 1..=127: not taken, the entry stays for a correction.
+                        _ => return None,
+                    }
+                } else {
+                    let scope = match e.value() {
+                        CODE_RESET_ALL => ResetScope::All,
+                        CODE_RESET_ALL_EXCEPT_BUS => ResetScope::AllExceptBus,
+                        CODE_RESET_BUS => ResetScope::BusOnly,
+                        CODE_DIAGNOSIS => {
+                            *self = Mode::Diagnosis(0);
+                            return None;
+                        }
+                        _ => {
+                            *self = Mode::List(Item::Code);
+                            return None;
+                        }
+                    };
+                    effect = Some(Effect::FactoryReset(scope));
+                    Mode::Normal
+                }
             }
-            Mode::Diagnosis(n) if key == m.value_input => Mode::Diagnosis(n.wrapping_add(1)),
+            Mode::Baud(i) => {
+                let i = *i;
+                if key == m.back {
+                    Mode::List(Item::Kbaud)
+                } else if key == m.value_input {
+                    Mode::Baud((i + 1) % BAUD_LIST.len() as u8)
+                } else if key == m.confirm {
+                    effect = Some(Effect::SetBaud(BAUD_LIST[i as usize % BAUD_LIST.len()]));
+                    Mode::List(Item::Kbaud)
+                } else {
+                    return None;
+                }
+            }
+            Mode::Diagnosis(n) => {
+                let n = *n;
+                if key == m.back {
+                    Mode::List(Item::Code)
+                } else if key == m.value_input {
+                    Mode::Diagnosis(n.wrapping_add(1))
+                } else {
+                    return None;
+                }
+            }
             _ => return None,
         };
+        *self = next;
         effect
     }
 
