@@ -190,10 +190,14 @@ impl Ap10t {
     fn refresh(&self, core: &mut Core) {
         let od = &mut core.od;
         od.set_value(0x5F19, 0, self.panel.status_bits() as u32);
-        for (which, lsb, msb) in [(Which::Sp1, 3, 4), (Which::Sp2, 1, 2)] {
-            let b = self.panel.set_points().get(which).bytes;
-            od.set_value(0x5F1D, lsb, u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
-            od.set_value(0x5F1D, msb, u16::from_le_bytes([b[4], b[5]]) as u32);
+        // 5F1Dh sub 1..=4 follow one another in the table (set point 2's four and two bytes,
+        // then set point 1's): one lookup.
+        if let Some(first) = od.pos(0x5F1D, 1) {
+            for (i, sp) in self.panel.set_points().sp.iter().rev().enumerate() {
+                let b = sp.bytes;
+                od.set(first + 2 * i, u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+                od.set(first + 2 * i + 1, u16::from_le_bytes([b[4], b[5]]) as u32);
+            }
         }
     }
 
@@ -481,6 +485,16 @@ mod tests {
 
     fn restored(d: &Ap10t, groups: GroupMask) -> impl Iterator<Item = (u16, u8)> + '_ {
         TABLE.iter().filter(move |e| e.group != Group::None && d.restores(e, groups)).map(|e| (e.index, e.sub))
+    }
+
+    #[test]
+    fn the_tpdo_set_point_objects_follow_one_another() {
+        // `refresh` writes 5F1Dh sub 1..=4 from the position of sub 1.
+        let od = crate::od::Od::new(TABLE, DEFAULT_NODE_ID);
+        let first = od.pos(0x5F1D, 1).unwrap();
+        for sub in 1..=4u8 {
+            assert_eq!(od.pos(0x5F1D, sub), Some(first + sub as usize - 1), "5F1Dh sub {sub}");
+        }
     }
 
     #[test]

@@ -411,8 +411,9 @@ impl Panel {
         let blink = match mode {
             Mode::PowerUp(since) => {
                 // The next quarter (an LED element's turn), at the latest the end of the test.
-                let next = power_up_quarter(since, now) as u64 + 1;
-                return Some(since.add_micros(next * POWER_UP_MS * 250));
+                // A quarter of the running test (under four): microseconds in 32 bits.
+                let next = power_up_quarter(since, now) + 1;
+                return Some(since.add_micros((next * POWER_UP_MS as u32 * 250) as u64));
             }
             Mode::Normal => {
                 let style = p.style(&self.sps);
