@@ -30,9 +30,9 @@ use crate::time::Instant;
 
 use super::keys::Key;
 use super::menu::{DiagEntry, Effect, ResetScope};
-use super::panel::{Panel, Params, View, PANEL_OBJECTS};
+use super::panel::{Panel, Params, View};
 use super::setpoint::Which;
-use super::table::{hooks, BITRATE_CODES, DEFAULT_NODE_ID, TABLE};
+use super::table::{at, hooks, BITRATE_CODES, DEFAULT_NODE_ID, TABLE};
 use super::words::sw;
 
 /// The "bus parameters" of manual Table 4, as (index, sub): what 1011h sub 2 and CODE 011105
@@ -135,9 +135,9 @@ impl Ap10t {
     fn load_diagnosis(&mut self, core: &Core) {
         let list = self.panel.diagnosis_mut();
         list.clear();
-        let n = core.od.value(0x1003, 0).unwrap_or(0).min(8) as u8;
+        let n = core.od.get(at::ERROR_HISTORY).min(8) as usize;
         for sub in 1..=n {
-            let code = core.od.value(0x1003, sub).unwrap_or(0) as u16;
+            let code = core.od.get(at::ERROR_HISTORY + sub) as u16;
             match list.iter_mut().find(|e| e.code == code) {
                 Some(e) => e.count = e.count.saturating_add(1),
                 None => {
@@ -151,10 +151,8 @@ impl Ap10t {
     fn load_params(&mut self, core: &Core) {
         let p = &mut self.panel.params;
         *p = Params::FACTORY;
-        for (index, sub) in PANEL_OBJECTS {
-            if let Some(v) = core.od.value(index, sub) {
-                let _ = p.write(index, sub, v);
-            }
+        for (i, &pos) in at::PANEL.iter().enumerate() {
+            let _ = p.write_nth(i, core.od.get(pos as usize));
         }
     }
 
@@ -171,15 +169,13 @@ impl Ap10t {
         let od = &mut core.od;
         // 6200h and 1800h.05 are one value in two objects of two storage groups: after a
         // reset, the one that differs from its default wins, 1800h.05 when both do.
-        if let (Some(a), Some(b)) = (od.pos(0x1800, 5), od.pos(0x6200, 0)) {
-            let (va, vb) = (od.get(a), od.get(b));
-            let v = if va != 0 || vb == 0 { va } else { vb };
-            od.set(a, v);
-            od.set(b, v);
-        }
+        let (va, vb) = (od.get(at::EVENT_TIMER), od.get(at::CYCLE_TIMER));
+        let v = if va != 0 || vb == 0 { va } else { vb };
+        od.set(at::EVENT_TIMER, v);
+        od.set(at::CYCLE_TIMER, v);
         self.load_params(core);
         self.can = CanDiagnosis::default();
-        core.od.set_value(0x5000, 0, 0);
+        core.od.set(at::CAN_DIAGNOSIS, 0);
         self.operational = false;
         self.heartbeat_due = None;
         self.refresh(core);
@@ -189,26 +185,24 @@ impl Ap10t {
     /// points the TPDOs carry (5F1Dh).
     fn refresh(&self, core: &mut Core) {
         let od = &mut core.od;
-        od.set_value(0x5F19, 0, self.panel.status_bits() as u32);
-        // 5F1Dh sub 1..=4 follow one another in the table (set point 2's four and two bytes,
-        // then set point 1's): one lookup.
-        if let Some(first) = od.pos(0x5F1D, 1) {
-            for (i, sp) in self.panel.set_points().sp.iter().rev().enumerate() {
-                let b = sp.bytes;
-                od.set(first + 2 * i, u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
-                od.set(first + 2 * i + 1, u16::from_le_bytes([b[4], b[5]]) as u32);
-            }
+        od.set(at::STATUS_WORD, self.panel.status_bits() as u32);
+        // 5F1Dh sub 1..=4: set point 2's four and two bytes, then set point 1's.
+        for (i, sp) in self.panel.set_points().sp.iter().rev().enumerate() {
+            let b = sp.bytes;
+            od.set(at::TPDO_SET_POINTS + 2 * i, u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+            od.set(at::TPDO_SET_POINTS + 2 * i + 1, u16::from_le_bytes([b[4], b[5]]) as u32);
         }
     }
 
     /// The eight bytes RPDO `which` delivered, read back from the mapped entries.
     fn rpdo_data(core: &Core, which: Which) -> [u8; 8] {
-        let (lsb, msb) = match which {
-            Which::Sp1 => (3, 4),
-            Which::Sp2 => (1, 2),
+        // 5F16h sub 1..=4: set point 2's four and two bytes, then set point 1's.
+        let lsb = match which {
+            Which::Sp1 => at::RPDO_SET_POINTS + 2,
+            Which::Sp2 => at::RPDO_SET_POINTS,
         };
-        let v = |i, s| core.od.value(i, s).unwrap_or(0) as u64;
-        (v(0x5F16, lsb) | (v(0x5F16, msb) & 0xFFFF) << 32 | (v(0x5F0C, 0) & 0xFFFF) << 48).to_le_bytes()
+        let v = |pos| core.od.get(pos) as u64;
+        (v(lsb) | (v(lsb + 1) & 0xFFFF) << 32 | (v(at::CONTROL_WORD) & 0xFFFF) << 48).to_le_bytes()
     }
 
     /// A key was pressed (its debounced edge) at `now`.
@@ -231,7 +225,7 @@ impl Ap10t {
             Some(Effect::AutoIdAdopted(id)) => {
                 // Manual 4.6.2: the SDO reply (on the old identifier), the node-ID stored,
                 // the initialisation again, the boot-up with the new node-ID.
-                core.od.set_value(0x5F0A, 1, id as u32);
+                core.od.set(at::NODE_ID, id as u32);
                 let _ = core.request_store(GroupMask::NODE_ID);
                 self.requests.sdo = Some(Ok(()));
                 self.requests.reset = Some(ResetKind::Communication);
@@ -251,20 +245,20 @@ impl Ap10t {
     /// A menu change of 5F0Ah sub `sub`: into the dictionary and kept at once (that entry
     /// alone, `mask`); adopted at the next initialisation (D-AP-16).
     fn keep(&mut self, core: &mut Core, sub: u8, value: u8, mask: GroupMask) {
-        core.od.set_value(0x5F0A, sub, value as u32);
+        core.od.set(at::NODE_ID + sub as usize - 1, value as u32);
         let _ = core.request_store(mask);
     }
 
     /// (Re)arms the external heartbeat (5F09h) at `now`: it runs in OPERATIONAL when 5F09h.01
     /// is not 0.
     fn arm_heartbeat(&mut self, core: &Core, now: Instant) {
-        let ms = core.od.value(0x5F09, 1).unwrap_or(0) as u64;
+        let ms = core.od.get(at::EXTERNAL_HEARTBEAT_TIME) as u64;
         self.heartbeat_due = (self.operational && ms != 0).then(|| now.add_millis(ms));
     }
 
     /// A trigger of the external heartbeat arrived: an RPDO (`sync` false) or a SYNC.
     fn heartbeat_trigger(&mut self, core: &Core, sync: bool, now: Instant) {
-        let source_sync = core.od.value(0x5F09, 2).unwrap_or(0) == 1;
+        let source_sync = core.od.get(at::EXTERNAL_HEARTBEAT_SOURCE) == 1;
         if source_sync == sync {
             self.arm_heartbeat(core, now);
         }
@@ -278,9 +272,9 @@ impl Ap10t {
         let which = if n == 0 { Which::Sp1 } else { Which::Sp2 };
         let plain = self.panel.status_bits();
         let ascii = self.panel.set_points().get(which).ascii;
-        core.od.set_value(0x5F19, 0, (plain | if ascii { sw::ASCII } else { 0 }) as u32);
+        core.od.set(at::STATUS_WORD, (plain | if ascii { sw::ASCII } else { 0 }) as u32);
         send(core);
-        core.od.set_value(0x5F19, 0, plain as u32);
+        core.od.set(at::STATUS_WORD, plain as u32);
     }
 
     fn report(&mut self, core: &mut Core, now: Instant) {
@@ -344,8 +338,8 @@ impl Device for Ap10t {
         match hook {
             // The access path has applied the event-timer rule (`link`).
             hooks::CYCLE_TIMER => {
-                core.od.set_value(0x1800, 5, value);
-                core.od.set_value(0x6200, 0, value);
+                core.od.set(at::EVENT_TIMER, value);
+                core.od.set(at::CYCLE_TIMER, value);
             }
             hooks::PANEL => {
                 // A refused value leaves the parameters as they were.
@@ -419,10 +413,10 @@ impl Device for Ap10t {
             BusEvent::RxOverrun => {}
             BusEvent::ProtocolError(e) => {
                 self.can.count(e);
-                core.od.set_value(0x5000, 0, self.can.ranking());
+                core.od.set(at::CAN_DIAGNOSIS, self.can.ranking());
             }
             BusEvent::ErrorCounters { rx, tx } => {
-                core.od.set_value(0x1002, 0, rx as u32 | (tx as u32) << 8);
+                core.od.set(at::STATUS_REGISTER, rx as u32 | (tx as u32) << 8);
             }
         }
         self.report(core, now);
@@ -485,16 +479,6 @@ mod tests {
 
     fn restored(d: &Ap10t, groups: GroupMask) -> impl Iterator<Item = (u16, u8)> + '_ {
         TABLE.iter().filter(move |e| e.group != Group::None && d.restores(e, groups)).map(|e| (e.index, e.sub))
-    }
-
-    #[test]
-    fn the_tpdo_set_point_objects_follow_one_another() {
-        // `refresh` writes 5F1Dh sub 1..=4 from the position of sub 1.
-        let od = crate::od::Od::new(TABLE, DEFAULT_NODE_ID);
-        let first = od.pos(0x5F1D, 1).unwrap();
-        for sub in 1..=4u8 {
-            assert_eq!(od.pos(0x5F1D, sub), Some(first + sub as usize - 1), "5F1Dh sub {sub}");
-        }
     }
 
     #[test]

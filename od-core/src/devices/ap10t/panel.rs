@@ -137,7 +137,12 @@ impl Params {
     /// power-up), checked against the object's range.
     pub fn write(&mut self, index: u16, sub: u8, value: u32) -> Result<(), ParamError> {
         let i = PANEL_OBJECTS.iter().position(|&o| o == (index, sub)).ok_or(ParamError::NotAPanelParameter)?;
-        let (lo, hi) = PANEL_RANGES[i];
+        self.write_nth(i, value)
+    }
+
+    /// [`Params::write`] to the `i`th of [`PANEL_OBJECTS`].
+    pub(crate) fn write_nth(&mut self, i: usize, value: u32) -> Result<(), ParamError> {
+        let Some(&(lo, hi)) = PANEL_RANGES.get(i) else { return Err(ParamError::NotAPanelParameter) };
         if !(lo as u32..=hi as u32).contains(&value) {
             return Err(ParamError::OutOfRange);
         }
