@@ -343,7 +343,8 @@ impl Device for Ap10t {
             }
             hooks::PANEL => {
                 // A refused value leaves the parameters as they were.
-                self.panel.params.write(e.index, e.sub, value).map_err(|_| Abort::INVALID_VALUE)?;
+                let i = at::PANEL.iter().position(|&p| p as usize == pos).unwrap_or(usize::MAX);
+                self.panel.params.write_nth(i, value).map_err(|_| Abort::INVALID_VALUE)?;
             }
             hooks::EXTERNAL_HEARTBEAT => {
                 if e.sub == 1 && (1..10).contains(&value) {
