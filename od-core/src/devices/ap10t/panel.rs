@@ -146,25 +146,35 @@ impl Params {
         if !(lo as u32..=hi as u32).contains(&value) {
             return Err(ParamError::OutOfRange);
         }
-        let (v, flag) = (value as u8, value == 1);
-        match i {
-            0 => self.key_enable_2003 = flag,
-            1 => self.key_enable_2004 = flag,
-            2 => self.config_enable = flag,
-            3 => self.config_delay_s = v,
-            4 => self.node_id = v,
-            5 => self.baud = v,
-            6 => self.row2_off = flag,
-            7 => self.decimals = v,
-            8 => self.rotated = flag,
-            9..=12 => self.lights.ack_dependent[i - 9] = flag,
-            13 => self.lights.flash_leds = flag,
-            14 => self.lights.backlight_white = flag,
-            15 => self.lights.backlight_red = flag,
-            16 => self.lights.flash_backlight = flag,
-            17 => self.ack_keys = AckKeys::from_raw(v).ok_or(ParamError::OutOfRange)?,
-            _ => self.steady_unacknowledged = flag,
-        }
+        let v = value as u8;
+        // A byte-sized value in place, else a flag (its range is 0..=1).
+        let byte = match i {
+            3 => &mut self.config_delay_s,
+            4 => &mut self.node_id,
+            5 => &mut self.baud,
+            7 => &mut self.decimals,
+            17 => {
+                self.ack_keys = AckKeys::from_raw(v).ok_or(ParamError::OutOfRange)?;
+                return Ok(());
+            }
+            _ => {
+                *match i {
+                    0 => &mut self.key_enable_2003,
+                    1 => &mut self.key_enable_2004,
+                    2 => &mut self.config_enable,
+                    6 => &mut self.row2_off,
+                    8 => &mut self.rotated,
+                    9..=12 => &mut self.lights.ack_dependent[i - 9],
+                    13 => &mut self.lights.flash_leds,
+                    14 => &mut self.lights.backlight_white,
+                    15 => &mut self.lights.backlight_red,
+                    16 => &mut self.lights.flash_backlight,
+                    _ => &mut self.steady_unacknowledged,
+                } = v == 1;
+                return Ok(());
+            }
+        };
+        *byte = v;
         Ok(())
     }
 }
