@@ -272,7 +272,7 @@ const STREAM_ORDER: [u8; 8] = [A, B, C, DP, F, G, E, D];
 /// The transfer that writes `screen`: mode `101`, address 0, the 32 nibbles (137 bits), then 7
 /// pad bits that repeat the nibbles of addresses 0 and 1 where the address wrapped to.
 ///
-/// Each digit's two nibbles are eight consecutive bits ([`STREAM_ORDER`]) that start one bit
+/// Each digit's two nibbles are eight consecutive bits (a, b, c, dp, f, g, e, d) that start one bit
 /// into a byte (the header is nine bits long); addresses 24..=31 are zero; the pad bits are
 /// digit 0's first seven again.
 pub fn frame(screen: &Screen) -> [u8; FRAME_LEN] {
