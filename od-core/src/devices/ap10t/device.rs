@@ -252,8 +252,9 @@ impl Ap10t {
     /// (Re)arms the external heartbeat (5F09h) at `now`: it runs in OPERATIONAL when 5F09h.01
     /// is not 0.
     fn arm_heartbeat(&mut self, core: &Core, now: Instant) {
-        let ms = core.od.get(at::EXTERNAL_HEARTBEAT_TIME) as u64;
-        self.heartbeat_due = (self.operational && ms != 0).then(|| now.add_millis(ms));
+        // 5F09h.01 is UNSIGNED16: its microseconds fit 32 bits.
+        let ms = core.od.get(at::EXTERNAL_HEARTBEAT_TIME) & 0xFFFF;
+        self.heartbeat_due = (self.operational && ms != 0).then(|| now.add_micros((ms * 1000) as u64));
     }
 
     /// A trigger of the external heartbeat arrived: an RPDO (`sync` false) or a SYNC.
