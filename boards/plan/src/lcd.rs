@@ -185,17 +185,14 @@ pub const fn upside_down(seg: u8) -> u8 {
 /// shown as segment d alone, a low bar that says "something is here".
 pub fn from_screen(screen: &od_core::devices::ap10t::Screen) -> Screen {
     let mut out = Screen::default();
-    for (p, row) in out.rows.iter_mut().enumerate() {
-        for (k, seg) in row.iter_mut().enumerate() {
-            let (g, dp) = if screen.rotated {
-                let cells = &screen.rows[1 - p].0;
-                let dp = k + 1 < DIGITS && cells[DIGITS - 2 - k].dp;
-                (upside_down(glyph(cells[DIGITS - 1 - k].ch).unwrap_or(D)), dp)
-            } else {
-                let c = screen.rows[p].0[k];
-                (glyph(c.ch).unwrap_or(D), c.dp)
-            };
-            *seg = g | if dp { DP } else { 0 };
+    let turned = screen.rotated;
+    for p in 0..ROWS {
+        for k in 0..DIGITS {
+            // The cell shown on physical digit k of row p, and the one after it as read.
+            let (cells, i) = if turned { (&screen.rows[1 - p].0, DIGITS - 1 - k) } else { (&screen.rows[p].0, k) };
+            let g = glyph(cells[i].ch).unwrap_or(D);
+            let (g, dp) = if turned { (upside_down(g), i > 0 && cells[i - 1].dp) } else { (g, cells[i].dp) };
+            out.rows[p][k] = g | if dp { DP } else { 0 };
         }
     }
     out
@@ -268,20 +265,29 @@ pub const INIT: [u8; 5] = {
 /// Bytes of the transfer that writes the whole display RAM.
 pub const FRAME_LEN: usize = 18;
 
+/// A digit's segments in the order the driver takes them: its two RAM nibbles, D0 first,
+/// address `2k` (a, b, c, dp) then `2k + 1` (f, g, e, d).
+const STREAM_ORDER: [u8; 8] = [A, B, C, DP, F, G, E, D];
+
 /// The transfer that writes `screen`: mode `101`, address 0, the 32 nibbles (137 bits), then 7
 /// pad bits that repeat the nibbles of addresses 0 and 1 where the address wrapped to.
+///
+/// Each digit's two nibbles are eight consecutive bits (a, b, c, dp, f, g, e, d) that start one bit
+/// into a byte (the header is nine bits long); addresses 24..=31 are zero; the pad bits are
+/// digit 0's first seven again.
 pub fn frame(screen: &Screen) -> [u8; FRAME_LEN] {
-    const HEADER_BITS: usize = 9;
-    let ram = ram(screen);
     let mut bytes = [0u8; FRAME_LEN];
     bytes[0] = 0b1010_0000;
-    // Data bit j is bit j % 4 of the nibble at address j / 4 (wrapping after 31).
-    for j in 0..FRAME_LEN * 8 - HEADER_BITS {
-        if ram[j / 4 % RAM_NIBBLES] >> (j % 4) & 1 != 0 {
-            let pos = HEADER_BITS + j;
-            bytes[pos / 8] |= 0x80 >> (pos % 8);
+    let mut k = 1;
+    for row in &screen.rows {
+        for &s in row {
+            let b = STREAM_ORDER.iter().fold(0u8, |b, &m| b << 1 | (s & m != 0) as u8);
+            bytes[k] |= b >> 1;
+            bytes[k + 1] = b << 7;
+            k += 1;
         }
     }
+    bytes[FRAME_LEN - 1] = bytes[1];
     bytes
 }
 
@@ -381,6 +387,21 @@ mod tests {
         let full = Screen { rows: [[0xFF; DIGITS]; ROWS] };
         let ram = super::ram(&full);
         assert!(ram[..24].iter().all(|&n| n == 0x0F) && ram[24..].iter().all(|&n| n == 0));
+    }
+
+    #[test]
+    fn every_segment_of_every_digit_reaches_its_ram_bit() {
+        for k in 0..ROWS * DIGITS {
+            for bit in 0..8 {
+                let mut screen = Screen::default();
+                screen.rows[k / DIGITS][k % DIGITS] = 1 << bit;
+                let (mode, addr, ram_seen, written) = clock_in(&frame(&screen));
+                assert_eq!((mode, addr, written), (0b101, 0, 34));
+                assert_eq!(ram_seen, ram(&screen), "digit {k} segment bit {bit}");
+            }
+        }
+        let full = Screen { rows: [[0xFF; DIGITS]; ROWS] };
+        assert_eq!(clock_in(&frame(&full)).2, ram(&full));
     }
 
     #[test]

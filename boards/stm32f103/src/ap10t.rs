@@ -11,11 +11,9 @@
 
 use board_plan::keys::{Change, Debouncer};
 use board_plan::lcd::{frame, from_screen, Screen, FRAME_LEN, INIT};
-use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
-use embassy_stm32::mode::Blocking;
-use embassy_stm32::peripherals::{PB12, PB13, PB15, SPI2};
-use embassy_stm32::spi::{self, Spi, MODE_0};
-use embassy_stm32::time::Hertz;
+use embassy_stm32::pac::{self, spi::vals as spi_vals};
+use embassy_stm32::peripherals::{PA0, PA1, PA2, PA3, PB0, PB1, PB10, PB11, PB12, PB13, PB15, SPI2};
+use embassy_stm32::rcc::enable_and_reset_without_stop;
 use embassy_stm32::Peri;
 
 use od_core::devices::ap10t::{Ap10t, Key, View};
@@ -29,94 +27,116 @@ use crate::Io;
 /// A whole display (18 bytes) takes 1 ms.
 pub const LCD_SPI_HZ: u32 = 140_625;
 
+/// SPI_CR1.BR for [`LCD_SPI_HZ`]: the clock divided by 2 << 7 = 256.
+const LCD_SPI_BR: u8 = 7;
+
 /// The LCD driver on SPI2, transmit only: CS = NSS PB12, WR = SCK PB13, DATA = MOSI PB15 (the
-/// driver's RD is not connected; PB14 stays free).
-pub struct Lcd {
-    spi: Spi<'static, Blocking, spi::mode::Master>,
-    nss: Output<'static>,
-}
+/// driver's RD is not connected; PB14 stays free). The SPI's registers are written directly
+/// (master, mode 0, 8 bits, most significant bit first, APB1 / 256, software NSS): the same
+/// configuration and byte sequence as Embassy's blocking transmit-only driver, in a fraction of
+/// its code.
+pub struct Lcd(());
 
 impl Lcd {
     /// The driver, deselected.
     pub fn new(
-        spi: Peri<'static, SPI2>,
-        nss: Peri<'static, PB12>,
-        sck: Peri<'static, PB13>,
-        mosi: Peri<'static, PB15>,
+        _spi: Peri<'static, SPI2>,
+        _nss: Peri<'static, PB12>,
+        _sck: Peri<'static, PB13>,
+        _mosi: Peri<'static, PB15>,
     ) -> Lcd {
-        let mut config = spi::Config::default();
-        config.mode = MODE_0;
-        config.frequency = Hertz(LCD_SPI_HZ);
-        Lcd { spi: Spi::new_blocking_txonly(spi, sck, mosi, config), nss: Output::new(nss, Level::High, Speed::Low) }
+        // NSS high (deselected) before PB12 becomes an output.
+        pac::GPIOB.bsrr().write(|w| w.0 = 1 << 12);
+        enable_and_reset_without_stop::<SPI2>();
+        // PB12 (NSS) push-pull output at 2 MHz (MODE 10, CNF 00), PB13 (SCK) and PB15 (MOSI)
+        // alternate function push-pull at 50 MHz (MODE 11, CNF 10).
+        pac::GPIOB.cr(1).modify(|w| w.0 = w.0 & !0xF0FF_0000 | 0xB0B2_0000);
+        pac::SPI2.cr1().write(|w| {
+            w.set_mstr(spi_vals::Mstr::MASTER);
+            w.set_br(spi_vals::Br::from_bits(LCD_SPI_BR));
+            w.set_ssm(true);
+            w.set_ssi(true);
+            w.set_spe(true);
+        });
+        Lcd(())
     }
 
     /// Starts the driver (oscillator, bias, display on).
-    pub fn init(&mut self) -> Result<(), spi::Error> {
+    pub fn init(&mut self) {
         self.write(&INIT)
     }
 
     /// Shows `screen` (writes the driver's whole display RAM).
-    pub fn show(&mut self, screen: &Screen) -> Result<(), spi::Error> {
+    pub fn show(&mut self, screen: &Screen) {
         self.write(&frame(screen))
     }
 
-    /// One transfer with CS low.
-    fn write(&mut self, bytes: &[u8]) -> Result<(), spi::Error> {
-        self.nss.set_low();
-        let result = self.spi.blocking_write(bytes);
-        self.nss.set_high();
-        result
+    /// One transfer with CS low: each byte written when the transmit buffer is free, the
+    /// transfer over when its echo has arrived (the F1's BSY flag clears too early).
+    fn write(&mut self, bytes: &[u8]) {
+        let spi = pac::SPI2;
+        pac::GPIOB.brr().write(|w| w.0 = 1 << 12);
+        for &b in bytes {
+            while !spi.sr().read().txe() {}
+            spi.dr().write(|w| w.set_dr(b as u16));
+            while !spi.sr().read().rxne() {}
+            let _ = spi.dr().read();
+        }
+        pac::GPIOB.bsrr().write(|w| w.0 = 1 << 12);
     }
 }
 
 /// The four keys (PA0 front key, PA1 "←", PA2 "*", PA3 "↑"; pull-ups, a pressed key reads
-/// low), debounced.
+/// low), debounced. The four pins are configured and read together through port A's registers.
 pub struct Keys {
-    pins: [Input<'static>; 4],
     debouncer: Debouncer,
 }
 
 impl Keys {
-    /// The keys, all released.
-    pub fn new(pins: [Peri<'static, AnyPin>; 4]) -> Keys {
-        Keys { pins: pins.map(|p| Input::new(p, Pull::Up)), debouncer: Debouncer::new() }
+    /// The keys, all released: PA0..PA3 inputs with pull-up.
+    pub fn new(_pins: (Peri<'static, PA0>, Peri<'static, PA1>, Peri<'static, PA2>, Peri<'static, PA3>)) -> Keys {
+        // Input with pull-up or pull-down (MODE 00, CNF 10) for PA0..PA3 in CRL.
+        pac::GPIOA.cr(0).modify(|w| w.0 = w.0 & !0xFFFF | 0x8888);
+        // ODR = 1 selects the pull-up.
+        pac::GPIOA.bsrr().write(|w| w.0 = 0xF);
+        Keys { debouncer: Debouncer::new() }
     }
 
     /// Scans the keys at `now` (every sample period); returns the change of the debounced keys
     /// (bits as `board_plan::keys` orders them), if any.
     pub fn scan(&mut self, now: od_core::Instant) -> Option<Change> {
-        let raw = self.raw();
-        self.debouncer.scan(raw, now)
+        self.debouncer.scan(Keys::raw(), now)
     }
 
-    /// The raw levels as pressed keys: bit `k` set = key `k` reads low now.
-    fn raw(&self) -> u8 {
-        let mut bits = 0;
-        for (k, pin) in self.pins.iter().enumerate() {
-            if pin.is_low() {
-                bits |= 1 << k;
-            }
-        }
-        bits
+    /// The raw levels as pressed keys: bit `k` set = key `k` (PA`k`) reads low now.
+    fn raw() -> u8 {
+        !pac::GPIOA.idr().read().0 as u8 & 0xF
     }
 }
 
-/// The two bi-colour LEDs: LED 1 green PB0 / red PB1, LED 2 green PB10 / red PB11, active high.
-pub struct Leds {
-    pins: [Output<'static>; 4],
-}
+/// The two bi-colour LEDs: LED 1 green PB0 / red PB1, LED 2 green PB10 / red PB11, active high,
+/// switched together through port B's set/reset register.
+pub struct Leds(());
+
+/// The LEDs' pins on port B (LED 1 green, red, LED 2 green, red) as a mask.
+const LED_MASK: u32 = 1 << 0 | 1 << 1 | 1 << 10 | 1 << 11;
 
 impl Leds {
-    /// The LEDs, off.
-    pub fn new(pins: [Peri<'static, AnyPin>; 4]) -> Leds {
-        Leds { pins: pins.map(|p| Output::new(p, Level::Low, Speed::Low)) }
+    /// The LEDs, off: push-pull outputs, 2 MHz.
+    pub fn new(_pins: (Peri<'static, PB0>, Peri<'static, PB1>, Peri<'static, PB10>, Peri<'static, PB11>)) -> Leds {
+        let gpio = pac::GPIOB;
+        gpio.brr().write(|w| w.0 = LED_MASK);
+        // Push-pull output at 2 MHz (MODE 10, CNF 00): PB0, PB1 in CRL, PB10, PB11 in CRH.
+        gpio.cr(0).modify(|w| w.0 = w.0 & !0xFF | 0x22);
+        gpio.cr(1).modify(|w| w.0 = w.0 & !0xFF00 | 0x2200);
+        Leds(())
     }
 
-    /// Lights LED 1 (`second` false) or LED 2 green, red, both (orange) or none.
-    pub fn set(&mut self, second: bool, green: bool, red: bool) {
-        let base = if second { 2 } else { 0 };
-        self.pins[base].set_level(green.into());
-        self.pins[base + 1].set_level(red.into());
+    /// Lights the elements of `on` (LED 1 green, red, LED 2 green, red) and darkens the others.
+    pub fn set(&mut self, on: [bool; 4]) {
+        let [g1, r1, g2, r2] = on.map(|b| b as u32);
+        let lit = g1 | r1 << 1 | g2 << 10 | r2 << 11;
+        pac::GPIOB.bsrr().write(|w| w.0 = lit | (LED_MASK & !lit) << 16);
     }
 }
 
@@ -137,9 +157,9 @@ pub struct Panel {
 }
 
 impl Panel {
-    /// The panel, the LCD started (a driver that does not answer is retried at every show).
+    /// The panel, the LCD started.
     pub fn new(mut lcd: Lcd, keys: Keys, leds: Leds) -> Panel {
-        let _ = lcd.init();
+        lcd.init();
         Panel { lcd, keys, leds, shown: None }
     }
 }
@@ -165,11 +185,11 @@ impl Io<Ap10t> for Panel {
         let View { screen, leds, .. } = device.view(now);
         // Comparing the 18 bytes for the driver is less code than comparing views.
         let bytes = frame(&from_screen(&screen));
-        if self.shown != Some(bytes) && self.lcd.write(&bytes).is_ok() {
+        if self.shown != Some(bytes) {
+            self.lcd.write(&bytes);
             self.shown = Some(bytes);
         }
-        self.leds.set(false, leds.left.green, leds.left.red);
-        self.leds.set(true, leds.right.green, leds.right.red);
+        self.leds.set([leds.left.green, leds.left.red, leds.right.green, leds.right.red]);
         device.next_change(now)
     }
 }
@@ -189,8 +209,8 @@ pub fn take() -> Board {
         mcu: Mcu::new(p.CAN, p.PA11, p.PA12, p.PB5, p.FLASH, p.IWDG),
         io: Panel::new(
             Lcd::new(p.SPI2, p.PB12, p.PB13, p.PB15),
-            Keys::new([p.PA0.into(), p.PA1.into(), p.PA2.into(), p.PA3.into()]),
-            Leds::new([p.PB0.into(), p.PB1.into(), p.PB10.into(), p.PB11.into()]),
+            Keys::new((p.PA0, p.PA1, p.PA2, p.PA3)),
+            Leds::new((p.PB0, p.PB1, p.PB10, p.PB11)),
         ),
     }
 }

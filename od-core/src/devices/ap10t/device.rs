@@ -30,9 +30,9 @@ use crate::time::Instant;
 
 use super::keys::Key;
 use super::menu::{DiagEntry, Effect, ResetScope};
-use super::panel::{Panel, Params, View, PANEL_OBJECTS};
+use super::panel::{Panel, Params, View};
 use super::setpoint::Which;
-use super::table::{hooks, BITRATE_CODES, DEFAULT_NODE_ID, TABLE};
+use super::table::{at, hooks, BITRATE_CODES, DEFAULT_NODE_ID, TABLE};
 use super::words::sw;
 
 /// The "bus parameters" of manual Table 4, as (index, sub): what 1011h sub 2 and CODE 011105
@@ -135,9 +135,9 @@ impl Ap10t {
     fn load_diagnosis(&mut self, core: &Core) {
         let list = self.panel.diagnosis_mut();
         list.clear();
-        let n = core.od.value(0x1003, 0).unwrap_or(0).min(8) as u8;
+        let n = core.od.get(at::ERROR_HISTORY).min(8) as usize;
         for sub in 1..=n {
-            let code = core.od.value(0x1003, sub).unwrap_or(0) as u16;
+            let code = core.od.get(at::ERROR_HISTORY + sub) as u16;
             match list.iter_mut().find(|e| e.code == code) {
                 Some(e) => e.count = e.count.saturating_add(1),
                 None => {
@@ -147,15 +147,13 @@ impl Ap10t {
         }
     }
 
-    /// The panel parameters as the dictionary holds them.
-    fn params(core: &Core) -> Params {
-        let mut p = Params::FACTORY;
-        for (index, sub) in PANEL_OBJECTS {
-            if let Some(v) = core.od.value(index, sub) {
-                let _ = p.write(index, sub, v);
-            }
+    /// The panel parameters made what the dictionary holds, in place.
+    fn load_params(&mut self, core: &Core) {
+        let p = &mut self.panel.params;
+        *p = Params::FACTORY;
+        for (i, &pos) in at::PANEL.iter().enumerate() {
+            let _ = p.write_nth(i, core.od.get(pos as usize));
         }
-        p
     }
 
     fn ensure_started(&mut self, core: &mut Core, now: Instant) {
@@ -171,15 +169,13 @@ impl Ap10t {
         let od = &mut core.od;
         // 6200h and 1800h.05 are one value in two objects of two storage groups: after a
         // reset, the one that differs from its default wins, 1800h.05 when both do.
-        if let (Some(a), Some(b)) = (od.pos(0x1800, 5), od.pos(0x6200, 0)) {
-            let (va, vb) = (od.get(a), od.get(b));
-            let v = if va != 0 || vb == 0 { va } else { vb };
-            od.set(a, v);
-            od.set(b, v);
-        }
-        self.panel.params = Ap10t::params(core);
+        let (va, vb) = (od.get(at::EVENT_TIMER), od.get(at::CYCLE_TIMER));
+        let v = if va != 0 || vb == 0 { va } else { vb };
+        od.set(at::EVENT_TIMER, v);
+        od.set(at::CYCLE_TIMER, v);
+        self.load_params(core);
         self.can = CanDiagnosis::default();
-        core.od.set_value(0x5000, 0, 0);
+        core.od.set(at::CAN_DIAGNOSIS, 0);
         self.operational = false;
         self.heartbeat_due = None;
         self.refresh(core);
@@ -189,28 +185,30 @@ impl Ap10t {
     /// points the TPDOs carry (5F1Dh).
     fn refresh(&self, core: &mut Core) {
         let od = &mut core.od;
-        od.set_value(0x5F19, 0, self.panel.status_bits() as u32);
-        for (which, lsb, msb) in [(Which::Sp1, 3, 4), (Which::Sp2, 1, 2)] {
-            let b = self.panel.set_points().get(which).bytes;
-            od.set_value(0x5F1D, lsb, u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
-            od.set_value(0x5F1D, msb, u16::from_le_bytes([b[4], b[5]]) as u32);
+        od.set(at::STATUS_WORD, self.panel.status_bits() as u32);
+        // 5F1Dh sub 1..=4: set point 2's four and two bytes, then set point 1's.
+        for (i, sp) in self.panel.set_points().sp.iter().rev().enumerate() {
+            let b = sp.bytes;
+            od.set(at::TPDO_SET_POINTS + 2 * i, u32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+            od.set(at::TPDO_SET_POINTS + 2 * i + 1, u16::from_le_bytes([b[4], b[5]]) as u32);
         }
     }
 
     /// The eight bytes RPDO `which` delivered, read back from the mapped entries.
     fn rpdo_data(core: &Core, which: Which) -> [u8; 8] {
-        let (lsb, msb) = match which {
-            Which::Sp1 => (3, 4),
-            Which::Sp2 => (1, 2),
+        // 5F16h sub 1..=4: set point 2's four and two bytes, then set point 1's.
+        let lsb = match which {
+            Which::Sp1 => at::RPDO_SET_POINTS + 2,
+            Which::Sp2 => at::RPDO_SET_POINTS,
         };
-        let v = |i, s| core.od.value(i, s).unwrap_or(0) as u64;
-        (v(0x5F16, lsb) | (v(0x5F16, msb) & 0xFFFF) << 32 | (v(0x5F0C, 0) & 0xFFFF) << 48).to_le_bytes()
+        let v = |pos| core.od.get(pos) as u64;
+        (v(lsb) | (v(lsb + 1) & 0xFFFF) << 32 | (v(at::CONTROL_WORD) & 0xFFFF) << 48).to_le_bytes()
     }
 
     /// A key was pressed (its debounced edge) at `now`.
     pub fn press(&mut self, core: &mut Core, key: Key, now: Instant) {
         self.ensure_started(core, now);
-        self.panel.params = Ap10t::params(core);
+        self.load_params(core);
         self.load_diagnosis(core);
         let effect = self.panel.press(key, now);
         self.refresh(core);
@@ -227,14 +225,14 @@ impl Ap10t {
             Some(Effect::AutoIdAdopted(id)) => {
                 // Manual 4.6.2: the SDO reply (on the old identifier), the node-ID stored,
                 // the initialisation again, the boot-up with the new node-ID.
-                core.od.set_value(0x5F0A, 1, id as u32);
+                core.od.set(at::NODE_ID, id as u32);
                 let _ = core.request_store(GroupMask::NODE_ID);
                 self.requests.sdo = Some(Ok(()));
                 self.requests.reset = Some(ResetKind::Communication);
             }
         }
         // The menu shows what the dictionary now holds.
-        self.panel.params = Ap10t::params(core);
+        self.load_params(core);
     }
 
     /// A key was released.
@@ -247,20 +245,21 @@ impl Ap10t {
     /// A menu change of 5F0Ah sub `sub`: into the dictionary and kept at once (that entry
     /// alone, `mask`); adopted at the next initialisation (D-AP-16).
     fn keep(&mut self, core: &mut Core, sub: u8, value: u8, mask: GroupMask) {
-        core.od.set_value(0x5F0A, sub, value as u32);
+        core.od.set(at::NODE_ID + sub as usize - 1, value as u32);
         let _ = core.request_store(mask);
     }
 
     /// (Re)arms the external heartbeat (5F09h) at `now`: it runs in OPERATIONAL when 5F09h.01
     /// is not 0.
     fn arm_heartbeat(&mut self, core: &Core, now: Instant) {
-        let ms = core.od.value(0x5F09, 1).unwrap_or(0) as u64;
-        self.heartbeat_due = (self.operational && ms != 0).then(|| now.add_millis(ms));
+        // 5F09h.01 is UNSIGNED16: its microseconds fit 32 bits.
+        let ms = core.od.get(at::EXTERNAL_HEARTBEAT_TIME) & 0xFFFF;
+        self.heartbeat_due = (self.operational && ms != 0).then(|| now.add_micros((ms * 1000) as u64));
     }
 
     /// A trigger of the external heartbeat arrived: an RPDO (`sync` false) or a SYNC.
     fn heartbeat_trigger(&mut self, core: &Core, sync: bool, now: Instant) {
-        let source_sync = core.od.value(0x5F09, 2).unwrap_or(0) == 1;
+        let source_sync = core.od.get(at::EXTERNAL_HEARTBEAT_SOURCE) == 1;
         if source_sync == sync {
             self.arm_heartbeat(core, now);
         }
@@ -274,9 +273,9 @@ impl Ap10t {
         let which = if n == 0 { Which::Sp1 } else { Which::Sp2 };
         let plain = self.panel.status_bits();
         let ascii = self.panel.set_points().get(which).ascii;
-        core.od.set_value(0x5F19, 0, (plain | if ascii { sw::ASCII } else { 0 }) as u32);
+        core.od.set(at::STATUS_WORD, (plain | if ascii { sw::ASCII } else { 0 }) as u32);
         send(core);
-        core.od.set_value(0x5F19, 0, plain as u32);
+        core.od.set(at::STATUS_WORD, plain as u32);
     }
 
     fn report(&mut self, core: &mut Core, now: Instant) {
@@ -340,12 +339,13 @@ impl Device for Ap10t {
         match hook {
             // The access path has applied the event-timer rule (`link`).
             hooks::CYCLE_TIMER => {
-                core.od.set_value(0x1800, 5, value);
-                core.od.set_value(0x6200, 0, value);
+                core.od.set(at::EVENT_TIMER, value);
+                core.od.set(at::CYCLE_TIMER, value);
             }
             hooks::PANEL => {
                 // A refused value leaves the parameters as they were.
-                self.panel.params.write(e.index, e.sub, value).map_err(|_| Abort::INVALID_VALUE)?;
+                let i = at::PANEL.iter().position(|&p| p as usize == pos).unwrap_or(usize::MAX);
+                self.panel.params.write_nth(i, value).map_err(|_| Abort::INVALID_VALUE)?;
             }
             hooks::EXTERNAL_HEARTBEAT => {
                 if e.sub == 1 && (1..10).contains(&value) {
@@ -415,10 +415,10 @@ impl Device for Ap10t {
             BusEvent::RxOverrun => {}
             BusEvent::ProtocolError(e) => {
                 self.can.count(e);
-                core.od.set_value(0x5000, 0, self.can.ranking());
+                core.od.set(at::CAN_DIAGNOSIS, self.can.ranking());
             }
             BusEvent::ErrorCounters { rx, tx } => {
-                core.od.set_value(0x1002, 0, rx as u32 | (tx as u32) << 8);
+                core.od.set(at::STATUS_REGISTER, rx as u32 | (tx as u32) << 8);
             }
         }
         self.report(core, now);

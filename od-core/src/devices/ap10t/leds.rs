@@ -102,10 +102,26 @@ fn elements(cfg: &LightConfig, sps: &SetPoints) -> (u8, u8) {
 
 /// The LEDs at `now`.
 pub fn leds(cfg: &LightConfig, sps: &SetPoints, now: Instant) -> Leds {
+    Leds::from_bits(lit(cfg, sps, now))
+}
+
+/// The elements lit at `now`, bit `i` = LED element `i` + 1 (LED1 green left, LED2 red left,
+/// LED3 green right, LED4 red right).
+pub(crate) fn lit(cfg: &LightConfig, sps: &SetPoints, now: Instant) -> u8 {
     let (on, blinking) = elements(cfg, sps);
-    let lit = if blink_on(now) { on } else { on & !blinking };
-    let e = |i: u8| lit & 1 << i != 0;
-    Leds { left: Bicolour { green: e(0), red: e(1) }, right: Bicolour { green: e(2), red: e(3) } }
+    if blink_on(now) {
+        on
+    } else {
+        on & !blinking
+    }
+}
+
+impl Leds {
+    /// The LEDs with the elements of `lit` on (bit `i` = LED element `i` + 1).
+    pub(crate) fn from_bits(lit: u8) -> Leds {
+        let e = |i: u8| lit & 1 << i != 0;
+        Leds { left: Bicolour { green: e(0), red: e(1) }, right: Bicolour { green: e(2), red: e(3) } }
+    }
 }
 
 /// The backlight at `now`.

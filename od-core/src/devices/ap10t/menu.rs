@@ -296,67 +296,99 @@ impl Mode {
     /// [`Mode::press`] in place: the mode becomes the next one; returns what the device must do.
     pub(crate) fn step(&mut self, key: Key, ctx: &MenuContext) -> Option<Effect> {
         let m = KEYMAP;
-        if let Mode::EditId(e) | Mode::EditCode(e) = self {
-            if key == m.digit_select {
-                e.select_left();
-                return None;
-            }
-            if key == m.value_input {
-                e.count_up();
-                return None;
-            }
-        }
         let mut effect = None;
-        let mut set = |e: Effect| effect = Some(e);
-        *self = match *self {
+        // Each mode's keys; a key a mode does not use changes nothing.
+        let next = match self {
             Mode::Info(_) if key == m.parameterize && ctx.config_enable => Mode::List(Item::Id),
             Mode::AutoId(id) if key == m.auto_id => {
-                set(Effect::AutoIdAdopted(id));
+                effect = Some(Effect::AutoIdAdopted(*id));
                 Mode::Normal
             }
-            Mode::List(_) if key == m.back => Mode::Normal,
-            Mode::List(item) if key == m.value_input => Mode::List(item.next()),
-            Mode::List(Item::Id) if key == m.confirm => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
-            Mode::List(Item::Kbaud) if key == m.confirm => {
-                Mode::Baud(BAUD_LIST.iter().position(|&b| b == ctx.baud).unwrap_or(0) as u8)
-            }
-            Mode::List(Item::Code) if key == m.confirm => Mode::EditCode(Entry::new(0, 6)),
-            Mode::EditId(_) if key == m.back => Mode::List(Item::Id),
-            Mode::Baud(_) if key == m.back => Mode::List(Item::Kbaud),
-            Mode::EditCode(_) | Mode::Diagnosis(_) if key == m.back => Mode::List(Item::Code),
-            Mode::EditId(e) if key == m.confirm => match e.value() {
-                v @ 1..=127 => {
-                    set(Effect::SetNodeId(v as u8));
-                    Mode::List(Item::Id)
+            Mode::List(item) => {
+                let item = *item;
+                if key == m.back {
+                    Mode::Normal
+                } else if key == m.value_input {
+                    Mode::List(item.next())
+                } else if key == m.confirm {
+                    match item {
+                        Item::Id => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
+                        Item::Kbaud => Mode::Baud(BAUD_LIST.iter().position(|&b| b == ctx.baud).unwrap_or(0) as u8),
+                        Item::Code => Mode::EditCode(Entry::new(0, 6)),
+                    }
+                } else {
+                    return None;
                 }
-                // Out of 1..=127: not taken, the entry stays for a correction.
-                _ => return None,
-            },
-            Mode::EditCode(e) if key == m.confirm => {
-                let scope = match e.value() {
-                    CODE_RESET_ALL => ResetScope::All,
-                    CODE_RESET_ALL_EXCEPT_BUS => ResetScope::AllExceptBus,
-                    CODE_RESET_BUS => ResetScope::BusOnly,
-                    CODE_DIAGNOSIS => {
-                        *self = Mode::Diagnosis(0);
-                        return None;
-                    }
-                    _ => {
-                        *self = Mode::List(Item::Code);
-                        return None;
-                    }
-                };
-                set(Effect::FactoryReset(scope));
-                Mode::Normal
             }
-            Mode::Baud(i) if key == m.value_input => Mode::Baud((i + 1) % BAUD_LIST.len() as u8),
-            Mode::Baud(i) if key == m.confirm => {
-                set(Effect::SetBaud(BAUD_LIST[i as usize % BAUD_LIST.len()]));
-                Mode::List(Item::Kbaud)
+            Mode::EditId(_) | Mode::EditCode(_) => {
+                let id = matches!(*self, Mode::EditId(_));
+                let (Mode::EditId(e) | Mode::EditCode(e)) = self else { return None };
+                if key == m.digit_select {
+                    e.select_left();
+                    return None;
+                }
+                if key == m.value_input {
+                    e.count_up();
+                    return None;
+                }
+                let item = if id { Item::Id } else { Item::Code };
+                if key == m.back {
+                    Mode::List(item)
+                } else if key != m.confirm {
+                    return None;
+                } else if id {
+                    match e.value() {
+                        v @ 1..=127 => {
+                            effect = Some(Effect::SetNodeId(v as u8));
+                            Mode::List(Item::Id)
+                        }
+                        // Out of 1..=127: not taken, the entry stays for a correction.
+                        _ => return None,
+                    }
+                } else {
+                    let scope = match e.value() {
+                        CODE_RESET_ALL => ResetScope::All,
+                        CODE_RESET_ALL_EXCEPT_BUS => ResetScope::AllExceptBus,
+                        CODE_RESET_BUS => ResetScope::BusOnly,
+                        CODE_DIAGNOSIS => {
+                            *self = Mode::Diagnosis(0);
+                            return None;
+                        }
+                        _ => {
+                            *self = Mode::List(Item::Code);
+                            return None;
+                        }
+                    };
+                    effect = Some(Effect::FactoryReset(scope));
+                    Mode::Normal
+                }
             }
-            Mode::Diagnosis(n) if key == m.value_input => Mode::Diagnosis(n.wrapping_add(1)),
+            Mode::Baud(i) => {
+                let i = *i;
+                if key == m.back {
+                    Mode::List(Item::Kbaud)
+                } else if key == m.value_input {
+                    Mode::Baud((i + 1) % BAUD_LIST.len() as u8)
+                } else if key == m.confirm {
+                    effect = Some(Effect::SetBaud(BAUD_LIST[i as usize % BAUD_LIST.len()]));
+                    Mode::List(Item::Kbaud)
+                } else {
+                    return None;
+                }
+            }
+            Mode::Diagnosis(n) => {
+                let n = *n;
+                if key == m.back {
+                    Mode::List(Item::Code)
+                } else if key == m.value_input {
+                    Mode::Diagnosis(n.wrapping_add(1))
+                } else {
+                    return None;
+                }
+            }
             _ => return None,
         };
+        *self = next;
         effect
     }
 
@@ -364,32 +396,59 @@ impl Mode {
     /// points; here it is blank). The diagnosis shows the first eight entries of `diag` at
     /// most, as many as the panel keeps.
     pub fn screen(self, now: Instant, ctx: &MenuContext, diag: &[DiagEntry]) -> [Row; 2] {
+        const ALL_SEGMENTS: &str = "8.8.8.8.8.8.";
+        // One shape for every mode: a text from the left on the upper row with `value` over it,
+        // and the lower row.
         let baud = |code: u8| Row::right(baud_text(code));
-        let (label, value) = match self {
-            Mode::Normal => return [Row::BLANK; 2],
-            Mode::PowerUp(_) => return [Row::left("8.8.8.8.8.8."); 2],
-            Mode::Info(_) => return [overlay(Row::left("ID"), decimal_row(ctx.node_id as u32)), baud(ctx.baud)],
-            Mode::List(Item::Id) => (Item::Id, decimal_row(ctx.node_id as u32)),
-            Mode::List(Item::Kbaud) => (Item::Kbaud, baud(ctx.baud)),
-            Mode::List(Item::Code) => (Item::Code, Row::BLANK),
-            Mode::EditId(e) => (Item::Id, e.row(now)),
-            Mode::EditCode(e) => (Item::Code, e.row(now)),
-            Mode::Baud(i) => (Item::Kbaud, baud(BAUD_LIST[i as usize % BAUD_LIST.len()])),
+        let mut value = Row::BLANK;
+        let mut lower = Row::BLANK;
+        let text = match self {
+            Mode::Normal => "",
+            Mode::PowerUp(_) => {
+                lower = Row::left(ALL_SEGMENTS);
+                ALL_SEGMENTS
+            }
+            Mode::Info(_) => {
+                value = decimal_row(ctx.node_id as u32);
+                lower = baud(ctx.baud);
+                Item::Id.label()
+            }
+            Mode::List(item) => {
+                lower = match item {
+                    Item::Id => decimal_row(ctx.node_id as u32),
+                    Item::Kbaud => baud(ctx.baud),
+                    Item::Code => Row::BLANK,
+                };
+                item.label()
+            }
+            Mode::EditId(e) => {
+                lower = e.row(now);
+                Item::Id.label()
+            }
+            Mode::EditCode(e) => {
+                lower = e.row(now);
+                Item::Code.label()
+            }
+            Mode::Baud(i) => {
+                lower = baud(BAUD_LIST[i as usize % BAUD_LIST.len()]);
+                Item::Kbaud.label()
+            }
             Mode::Diagnosis(n) => {
                 // The panel keeps eight entries: the error number is one digit.
                 let diag = &diag[..diag.len().min(8)];
                 if diag.is_empty() {
-                    return [Row::left("no Err"), Row::BLANK];
+                    "no Err"
+                } else {
+                    let i = n as usize % diag.len();
+                    let e = diag[i];
+                    value = decimal_row(e.count as u32);
+                    lower = hex_row(e.code);
+                    &"12345678"[i..i + 1]
                 }
-                let i = n as usize % diag.len();
-                let e = diag[i];
-                let mut number = Row::BLANK;
-                number.0[0].ch = b'1' + i as u8;
-                return [overlay(number, decimal_row(e.count as u32)), hex_row(e.code)];
             }
-            Mode::AutoId(_) => return [Row::left("New ID"), Row::BLANK],
+            Mode::AutoId(_) => "New ID",
         };
-        [Row::left(label.label()), value]
+        [overlay(Row::left(text), value), lower]
     }
 
     /// Whether the mode's rows change with the blink clock.

@@ -137,29 +137,44 @@ impl Params {
     /// power-up), checked against the object's range.
     pub fn write(&mut self, index: u16, sub: u8, value: u32) -> Result<(), ParamError> {
         let i = PANEL_OBJECTS.iter().position(|&o| o == (index, sub)).ok_or(ParamError::NotAPanelParameter)?;
-        let (lo, hi) = PANEL_RANGES[i];
+        self.write_nth(i, value)
+    }
+
+    /// [`Params::write`] to the `i`th of [`PANEL_OBJECTS`].
+    pub(crate) fn write_nth(&mut self, i: usize, value: u32) -> Result<(), ParamError> {
+        let Some(&(lo, hi)) = PANEL_RANGES.get(i) else { return Err(ParamError::NotAPanelParameter) };
         if !(lo as u32..=hi as u32).contains(&value) {
             return Err(ParamError::OutOfRange);
         }
-        let (v, flag) = (value as u8, value == 1);
-        match i {
-            0 => self.key_enable_2003 = flag,
-            1 => self.key_enable_2004 = flag,
-            2 => self.config_enable = flag,
-            3 => self.config_delay_s = v,
-            4 => self.node_id = v,
-            5 => self.baud = v,
-            6 => self.row2_off = flag,
-            7 => self.decimals = v,
-            8 => self.rotated = flag,
-            9..=12 => self.lights.ack_dependent[i - 9] = flag,
-            13 => self.lights.flash_leds = flag,
-            14 => self.lights.backlight_white = flag,
-            15 => self.lights.backlight_red = flag,
-            16 => self.lights.flash_backlight = flag,
-            17 => self.ack_keys = AckKeys::from_raw(v).ok_or(ParamError::OutOfRange)?,
-            _ => self.steady_unacknowledged = flag,
-        }
+        let v = value as u8;
+        // A byte-sized value in place, else a flag (its range is 0..=1).
+        let byte = match i {
+            3 => &mut self.config_delay_s,
+            4 => &mut self.node_id,
+            5 => &mut self.baud,
+            7 => &mut self.decimals,
+            17 => {
+                self.ack_keys = AckKeys::from_raw(v).ok_or(ParamError::OutOfRange)?;
+                return Ok(());
+            }
+            _ => {
+                *match i {
+                    0 => &mut self.key_enable_2003,
+                    1 => &mut self.key_enable_2004,
+                    2 => &mut self.config_enable,
+                    6 => &mut self.row2_off,
+                    8 => &mut self.rotated,
+                    9..=12 => &mut self.lights.ack_dependent[i - 9],
+                    13 => &mut self.lights.flash_leds,
+                    14 => &mut self.lights.backlight_white,
+                    15 => &mut self.lights.backlight_red,
+                    16 => &mut self.lights.flash_backlight,
+                    _ => &mut self.steady_unacknowledged,
+                } = v == 1;
+                return Ok(());
+            }
+        };
+        *byte = v;
         Ok(())
     }
 }
@@ -393,17 +408,13 @@ impl Panel {
             Mode::Normal => self.set_point_rows(now),
             _ => mode.screen(now, &p.menu(), &self.diag),
         };
-        let (leds, backlight) = match mode {
-            Mode::PowerUp(since) => {
-                let step = power_up_quarter(since, now);
-                let on = |i: u32| step == i;
-                (
-                    Leds { left: Bicolour { green: on(0), red: on(1) }, right: Bicolour { green: on(2), red: on(3) } },
-                    Backlight { white: true, red: true },
-                )
-            }
-            _ => (leds::leds(&p.lights, &self.sps, now), leds::backlight(&p.lights, now)),
+        let (lit, backlight) = match mode {
+            // The power-up test lights the four LED elements one after the other (a quarter
+            // past the last is no element).
+            Mode::PowerUp(since) => (1 << power_up_quarter(since, now).min(4), Backlight { white: true, red: true }),
+            _ => (leds::lit(&p.lights, &self.sps, now), leds::backlight(&p.lights, now)),
         };
+        let leds = Leds::from_bits(lit);
         View { screen: Screen { rows, rotated: p.rotated }, leds, backlight }
     }
 
@@ -415,8 +426,9 @@ impl Panel {
         let blink = match mode {
             Mode::PowerUp(since) => {
                 // The next quarter (an LED element's turn), at the latest the end of the test.
-                let next = power_up_quarter(since, now) as u64 + 1;
-                return Some(since.add_micros(next * POWER_UP_MS * 250));
+                // A quarter of the running test (under four): microseconds in 32 bits.
+                let next = power_up_quarter(since, now) + 1;
+                return Some(since.add_micros((next * POWER_UP_MS as u32 * 250) as u64));
             }
             Mode::Normal => {
                 let style = p.style(&self.sps);

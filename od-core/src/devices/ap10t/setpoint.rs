@@ -54,8 +54,8 @@ impl SetPoint {
     /// Whether `bytes` with identifier `ascii` show something else than `self` (only the bytes
     /// that matter for the type count).
     fn differs(&self, bytes: &[u8; 6], ascii: bool) -> bool {
-        let n = if ascii { 6 } else { 4 };
-        self.ascii != ascii || self.bytes[..n] != bytes[..n]
+        let (a, b) = (&self.bytes, bytes);
+        self.ascii != ascii || a[..4] != b[..4] || (ascii && a[4..] != b[4..])
     }
 }
 

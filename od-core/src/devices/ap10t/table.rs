@@ -12,6 +12,8 @@ use crate::bitrate::Bitrate;
 use crate::devices::comm::{self, AutoId, CanOpen, Identity, NodeIdAndBitrate, Pdo, Profile, Serial};
 use crate::od::{Access, Access::*, DataType::*, Entry, Group, Hook};
 
+use super::panel::PANEL_OBJECTS;
+
 /// Device-specific write hooks of the AP10T (`Hook::Device(n)`).
 pub mod hooks {
     /// 6200h cycle timer and 1800h.05 event timer: one value in two objects.
@@ -93,7 +95,7 @@ const fn panel_var(index: u16, name: &'static str, default: u32, lo: i64, hi: i6
     Entry::var(index, name, Unsigned8, Rw, default).range(lo, hi).group(MANUF).hook(dev(hooks::PANEL))
 }
 
-static ROWS: [Entry; ENTRIES] = comm::join(&[
+const ROWS_CONST: [Entry; ENTRIES] = comm::join(&[
     comm::rows(&PROFILE).as_slice(),
     &[
         panel_var(0x2003, "Key actuation enable (2003h)", 1, 0, 1),
@@ -159,13 +161,89 @@ static ROWS: [Entry; ENTRIES] = comm::join(&[
     ],
 ]);
 
+static ROWS: [Entry; ENTRIES] = ROWS_CONST;
+
 /// The AP10T dictionary, sorted by (index, sub).
 pub static TABLE: &[Entry] = &ROWS;
+
+/// Positions in [`TABLE`] of the entries the device reads and writes itself, found when the
+/// table is declared (the build fails if one is missing) instead of looked up at every use.
+pub mod at {
+    use super::{PANEL_OBJECTS, ROWS_CONST};
+    use crate::encoder::position;
+
+    const fn pos(index: u16, sub: u8) -> usize {
+        position(&ROWS_CONST, index, sub) as usize
+    }
+
+    /// 1002h manufacturer status register.
+    pub const STATUS_REGISTER: usize = pos(0x1002, 0);
+    /// 1003h sub 0, the number of errors; sub n follows at `ERROR_HISTORY + n`.
+    pub const ERROR_HISTORY: usize = pos(0x1003, 0);
+    /// 1800h.05 TPDO1 event timer.
+    pub const EVENT_TIMER: usize = pos(0x1800, 5);
+    /// 5000h CAN bus error diagnosis.
+    pub const CAN_DIAGNOSIS: usize = pos(0x5000, 0);
+    /// 5F09h.01 external heartbeat time, .02 its source.
+    pub const EXTERNAL_HEARTBEAT_TIME: usize = pos(0x5F09, 1);
+    /// 5F09h.02 external heartbeat source.
+    pub const EXTERNAL_HEARTBEAT_SOURCE: usize = pos(0x5F09, 2);
+    /// 5F0Ah sub 1 (node-ID); sub `s` follows at `NODE_ID + s - 1`.
+    pub const NODE_ID: usize = pos(0x5F0A, 1);
+    /// 5F0Ch control word.
+    pub const CONTROL_WORD: usize = pos(0x5F0C, 0);
+    /// 5F16h sub 1 (set point 2, four bytes); subs 2..=4 follow.
+    pub const RPDO_SET_POINTS: usize = pos(0x5F16, 1);
+    /// 5F19h status word.
+    pub const STATUS_WORD: usize = pos(0x5F19, 0);
+    /// 5F1Dh sub 1 (set point 2, four bytes); subs 2..=4 follow.
+    pub const TPDO_SET_POINTS: usize = pos(0x5F1D, 1);
+    /// 6200h cycle timer.
+    pub const CYCLE_TIMER: usize = pos(0x6200, 0);
+    /// The positions of `PANEL_OBJECTS`, in its order.
+    pub const PANEL: [u8; PANEL_OBJECTS.len()] = {
+        let mut out = [0; PANEL_OBJECTS.len()];
+        let mut i = 0;
+        while i < out.len() {
+            out[i] = position(&ROWS_CONST, PANEL_OBJECTS[i].0, PANEL_OBJECTS[i].1);
+            i += 1;
+        }
+        out
+    };
+}
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::od::{CoreHook, Od};
+
+    #[test]
+    fn the_positions_the_device_uses() {
+        let od = Od::new(TABLE, DEFAULT_NODE_ID);
+        let pos = |i, s| od.pos(i, s).unwrap();
+        for sub in 0..=8u8 {
+            assert_eq!(pos(0x1003, sub), at::ERROR_HISTORY + sub as usize);
+        }
+        for sub in 1..=4u8 {
+            assert_eq!(pos(0x5F16, sub), at::RPDO_SET_POINTS + sub as usize - 1);
+            assert_eq!(pos(0x5F1D, sub), at::TPDO_SET_POINTS + sub as usize - 1);
+        }
+        for sub in 1..=3u8 {
+            assert_eq!(pos(0x5F0A, sub), at::NODE_ID + sub as usize - 1);
+        }
+        assert_eq!(pos(0x5F09, 2), at::EXTERNAL_HEARTBEAT_TIME + 1);
+        assert_eq!(
+            [at::STATUS_REGISTER, at::EVENT_TIMER, at::CAN_DIAGNOSIS, at::EXTERNAL_HEARTBEAT_SOURCE],
+            [pos(0x1002, 0), pos(0x1800, 5), pos(0x5000, 0), pos(0x5F09, 2)]
+        );
+        assert_eq!(
+            [at::CONTROL_WORD, at::STATUS_WORD, at::CYCLE_TIMER],
+            [pos(0x5F0C, 0), pos(0x5F19, 0), pos(0x6200, 0)]
+        );
+        for (i, &(index, sub)) in PANEL_OBJECTS.iter().enumerate() {
+            assert_eq!(at::PANEL[i] as usize, pos(index, sub));
+        }
+    }
 
     #[test]
     fn the_table_builds_with_factory_values() {
