@@ -49,6 +49,11 @@ pub struct Node<D: CanopenDevice> {
     /// The receive list as a quick filter, and the [`Node::rx_ids_generation`] it was built
     /// for (rebuilt on the first frame after a change).
     filter: (RxFilter, u32),
+    /// The SYNC's [`CanId::key`] when [`Node::dispatch`] would hand a data frame on it to
+    /// [`Node::on_sync`] whatever its NMT state but INITIALISATION (the node has a node-ID and
+    /// no other service of the node takes that identifier), else `u32::MAX` (no identifier):
+    /// [`Node::on_frame`] takes such a SYNC straight there. Rebuilt with the filter.
+    sync_key: u32,
     /// [`Node::next_deadline`] as the last poll left it, while nothing else has touched the
     /// node since (`None`: something has, compute it afresh). A poll before it has nothing to
     /// do (issue 14's W4, the firmware's idle tick).
@@ -129,6 +134,7 @@ impl<D: CanopenDevice> Node<D> {
         if code.is_some() {
             node.scan = None;
         }
+        node.rebuild_filter();
         node
     }
 
@@ -167,9 +173,10 @@ impl<D: CanopenDevice> Node<D> {
             lss,
             scan,
             filter: (RxFilter::OPEN, 0),
+            sync_key: u32::MAX,
             due: Due::default(),
         };
-        node.filter = (RxFilter::new(&node.rx_ids()), node.rx_ids_generation());
+        node.rebuild_filter();
         node.notify();
         node
     }
@@ -270,7 +277,13 @@ impl<D: CanopenDevice> Node<D> {
             self.rebuild_filter();
         }
         if self.filter.0.passes(frame.id) {
-            self.dispatch(frame, now);
+            // A SYNC goes straight to its work (issue 14's W3), as the dispatch would route it.
+            if frame.id.key() == self.sync_key && !frame.rtr && self.nmt != NmtState::Initialising {
+                self.due.forget();
+                self.on_sync(now);
+            } else {
+                self.dispatch(frame, now);
+            }
         }
     }
 
@@ -294,6 +307,15 @@ impl<D: CanopenDevice> Node<D> {
     #[inline(never)]
     fn rebuild_filter(&mut self) {
         self.filter = (RxFilter::new(&self.rx_ids()), self.rx_ids_generation());
+        // The identifiers `dispatch` tests before the SYNC's take it first.
+        let key = self.pdo.sync_key();
+        let id = self.ctx.node_id as u32;
+        let taken = !self.ctx.configured()
+            || (key == lss::RX_ID as u32 && self.lss.enabled())
+            || key == 0
+            || key == 0x600 + id
+            || key == 0x700 + id;
+        self.sync_key = if taken { u32::MAX } else { key };
     }
 
     /// A frame on the receive list (or one the quick filter could not tell from it).

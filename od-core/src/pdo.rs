@@ -342,6 +342,12 @@ impl Pdos {
         frame.id.key() == self.sync_key && !frame.rtr
     }
 
+    /// The SYNC identifier's [`CanId::key`] (1005h), `u32::MAX` if the node has none.
+    #[inline]
+    pub fn sync_key(&self) -> u32 {
+        self.sync_key
+    }
+
     /// The SYNC identifier (1005h), if the node has one.
     #[inline]
     pub fn sync_id(&self) -> Option<CanId> {
