@@ -355,9 +355,10 @@ impl<D: CanopenDevice> Node<D> {
             if frame.rtr {
                 self.on_guarding_rtr(now);
             }
-        } else if self.pdo.is_sync(frame) {
-            self.on_sync(now);
         } else {
+            // A SYNC never gets here: `on_frame` takes it (`Node::sync_key`, valid for the
+            // receive list's generation, which every change of the node-ID or 1005h moves).
+            debug_assert!(!self.pdo.is_sync(frame), "a SYNC in the dispatch");
             self.on_pdo_frame(frame, now);
         }
     }
