@@ -50,9 +50,10 @@ pub struct Node<D: CanopenDevice> {
     /// for (rebuilt on the first frame after a change).
     filter: (RxFilter, u32),
     /// The SYNC's [`CanId::key`] when [`Node::dispatch`] would hand a data frame on it to
-    /// [`Node::on_sync`] whatever its NMT state but INITIALISATION (the node has a node-ID and
-    /// no other service of the node takes that identifier), else `u32::MAX` (no identifier):
-    /// [`Node::on_frame`] takes such a SYNC straight there. Rebuilt with the filter.
+    /// [`Node::on_sync`] (the node has a node-ID, is not initialising, and no other service of
+    /// the node takes that identifier), else `u32::MAX` (no identifier): [`Node::on_frame`]
+    /// takes such a SYNC straight there. Rebuilt with the filter, which every NMT state change
+    /// marks stale.
     sync_key: u32,
     /// [`Node::next_deadline`] as the last poll left it, while nothing else has touched the
     /// node since (`None`: something has, compute it afresh). A poll before it has nothing to
@@ -244,9 +245,11 @@ impl<D: CanopenDevice> Node<D> {
     }
 
     /// Enters NMT state `state`; error announcements follow it (EMCY rules).
-    #[inline]
+    #[inline(never)]
     fn set_nmt(&mut self, state: NmtState) {
         self.nmt = state;
+        // The cached SYNC key follows the state: rebuilt with the filter on the next frame.
+        self.filter.1 = !self.rx_ids_generation();
         self.ctx.errors.set_gate(emcy::gate(state));
     }
 
@@ -278,7 +281,7 @@ impl<D: CanopenDevice> Node<D> {
         }
         if self.filter.0.passes(frame.id) {
             // A SYNC goes straight to its work (issue 14's W3), as the dispatch would route it.
-            if frame.id.key() == self.sync_key && !frame.rtr && self.nmt != NmtState::Initialising {
+            if frame.id.key() == self.sync_key && !frame.rtr {
                 self.due.forget();
                 self.on_sync(now);
             } else {
@@ -311,6 +314,7 @@ impl<D: CanopenDevice> Node<D> {
         let key = self.pdo.sync_key();
         let id = self.ctx.node_id as u32;
         let taken = !self.ctx.configured()
+            || self.nmt == NmtState::Initialising
             || (key == lss::RX_ID as u32 && self.lss.enabled())
             || key == 0
             || key == 0x600 + id
@@ -659,6 +663,7 @@ impl<D: CanopenDevice> Node<D> {
     #[cfg(test)]
     pub(crate) fn parts(&mut self) -> (&mut Context, &mut NmtState, &mut Pdos) {
         self.due.forget();
+        self.filter.1 = !self.rx_ids_generation();
         (&mut self.ctx, &mut self.nmt, &mut self.pdo)
     }
 }
