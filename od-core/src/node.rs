@@ -281,11 +281,12 @@ impl<D: CanopenDevice> Node<D> {
         }
         if self.filter.0.passes(frame.id) {
             // A SYNC goes straight to its work (issue 14's W3), as the dispatch would route it.
-            if frame.id.key() == self.sync_key && !frame.rtr {
+            let key = frame.id.key();
+            if key == self.sync_key && !frame.rtr {
                 self.due.forget();
                 self.on_sync(now);
             } else {
-                self.dispatch(frame, now);
+                self.dispatch(frame, key, now);
             }
         }
     }
@@ -324,10 +325,10 @@ impl<D: CanopenDevice> Node<D> {
 
     /// A frame on the receive list (or one the quick filter could not tell from it).
     #[inline(never)]
-    fn dispatch(&mut self, frame: &Frame, now: Instant) {
+    fn dispatch(&mut self, frame: &Frame, key: u32, now: Instant) {
         self.due.forget();
-        // One number per identifier (`CanId::key`): each test below is one compare.
-        let key = frame.id.key();
+        // One number per identifier (`key`, the frame's `CanId::key`): each test below is one
+        // compare.
         // LSS works in every NMT state and without a node-ID (CiA 305).
         if key == lss::RX_ID as u32 && self.lss.enabled() {
             let event = self.lss.on_frame(&mut self.ctx, frame, now);
