@@ -361,8 +361,8 @@ impl<D: CanopenDevice> Node<D> {
                 self.on_guarding_rtr(now);
             }
         } else {
-            // A SYNC never gets here: `on_frame` takes it (`Node::sync_key`, valid for the
-            // receive list's generation, which every change of the node-ID or 1005h moves).
+            // A SYNC never gets here: `on_frame` takes it (`Node::sync_key`, rebuilt with the
+            // filter after every change of the node-ID, 1005h or the NMT state).
             debug_assert!(!self.pdo.is_sync(frame), "a SYNC in the dispatch");
             self.on_pdo_frame(frame, now);
         }
