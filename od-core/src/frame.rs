@@ -110,6 +110,7 @@ impl RxFilter {
     }
 
     /// The filter of a receive list.
+    #[inline(never)]
     pub fn new(ids: &[RxId]) -> RxFilter {
         let mut bits = 0;
         for rx in ids {

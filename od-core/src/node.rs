@@ -49,6 +49,12 @@ pub struct Node<D: CanopenDevice> {
     /// The receive list as a quick filter, and the [`Node::rx_ids_generation`] it was built
     /// for (rebuilt on the first frame after a change).
     filter: (RxFilter, u32),
+    /// The SYNC's [`CanId::key`] when [`Node::dispatch`] would hand a data frame on it to
+    /// [`Node::on_sync`] (the node has a node-ID, is not initialising, and no other service of
+    /// the node takes that identifier), else `u32::MAX` (no identifier): [`Node::on_frame`]
+    /// takes such a SYNC straight there. Rebuilt with the filter, which every NMT state change
+    /// marks stale.
+    sync_key: u32,
     /// [`Node::next_deadline`] as the last poll left it, while nothing else has touched the
     /// node since (`None`: something has, compute it afresh). A poll before it has nothing to
     /// do (issue 14's W4, the firmware's idle tick).
@@ -129,6 +135,7 @@ impl<D: CanopenDevice> Node<D> {
         if code.is_some() {
             node.scan = None;
         }
+        node.rebuild_filter();
         node
     }
 
@@ -168,9 +175,10 @@ impl<D: CanopenDevice> Node<D> {
             lss,
             scan,
             filter: (RxFilter::OPEN, 0),
+            sync_key: u32::MAX,
             due: Due::default(),
         };
-        node.filter = (RxFilter::new(&node.rx_ids()), node.rx_ids_generation());
+        node.rebuild_filter();
         node.notify();
         node
     }
@@ -238,9 +246,11 @@ impl<D: CanopenDevice> Node<D> {
     }
 
     /// Enters NMT state `state`; error announcements follow it (EMCY rules).
-    #[inline]
+    #[inline(never)]
     fn set_nmt(&mut self, state: NmtState) {
         self.nmt = state;
+        // The cached SYNC key follows the state: rebuilt with the filter on the next frame.
+        self.filter.1 = !self.rx_ids_generation();
         self.ctx.errors.set_gate(emcy::gate(state));
     }
 
@@ -271,7 +281,14 @@ impl<D: CanopenDevice> Node<D> {
             self.rebuild_filter();
         }
         if self.filter.0.passes(frame.id) {
-            self.dispatch(frame, now);
+            // A SYNC goes straight to its work (issue 14's W3), as the dispatch would route it.
+            let key = frame.id.key();
+            if key == self.sync_key && !frame.rtr {
+                self.due.forget();
+                self.on_sync(now);
+            } else {
+                self.dispatch(frame, key, now);
+            }
         }
     }
 
@@ -295,14 +312,24 @@ impl<D: CanopenDevice> Node<D> {
     #[inline(never)]
     fn rebuild_filter(&mut self) {
         self.filter = (RxFilter::new(&self.rx_ids()), self.rx_ids_generation());
+        // The identifiers `dispatch` tests before the SYNC's take it first.
+        let key = self.pdo.sync_key();
+        let id = self.ctx.node_id as u32;
+        let taken = !self.ctx.configured()
+            || self.nmt == NmtState::Initialising
+            || (key == lss::RX_ID as u32 && self.lss.enabled())
+            || key == 0
+            || key == 0x600 + id
+            || key == 0x700 + id;
+        self.sync_key = if taken { u32::MAX } else { key };
     }
 
     /// A frame on the receive list (or one the quick filter could not tell from it).
     #[inline(never)]
-    fn dispatch(&mut self, frame: &Frame, now: Instant) {
+    fn dispatch(&mut self, frame: &Frame, key: u32, now: Instant) {
         self.due.forget();
-        // One number per identifier (`CanId::key`): each test below is one compare.
-        let key = frame.id.key();
+        // One number per identifier (`key`, the frame's `CanId::key`): each test below is one
+        // compare.
         // LSS works in every NMT state and without a node-ID (CiA 305).
         if key == lss::RX_ID as u32 && self.lss.enabled() {
             let event = self.lss.on_frame(&mut self.ctx, frame, now);
@@ -334,9 +361,10 @@ impl<D: CanopenDevice> Node<D> {
             if frame.rtr {
                 self.on_guarding_rtr(now);
             }
-        } else if self.pdo.is_sync(frame) {
-            self.on_sync(now);
         } else {
+            // A SYNC never gets here: `on_frame` takes it (`Node::sync_key`, rebuilt with the
+            // filter after every change of the node-ID, 1005h or the NMT state).
+            debug_assert!(!self.pdo.is_sync(frame), "a SYNC in the dispatch");
             self.on_pdo_frame(frame, now);
         }
     }
@@ -637,6 +665,7 @@ impl<D: CanopenDevice> Node<D> {
     #[cfg(test)]
     pub(crate) fn parts(&mut self) -> (&mut Context, &mut NmtState, &mut Pdos) {
         self.due.forget();
+        self.filter.1 = !self.rx_ids_generation();
         (&mut self.ctx, &mut self.nmt, &mut self.pdo)
     }
 }

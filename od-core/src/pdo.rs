@@ -342,6 +342,12 @@ impl Pdos {
         frame.id.key() == self.sync_key && !frame.rtr
     }
 
+    /// The SYNC identifier's [`CanId::key`] (1005h), `u32::MAX` if the node has none.
+    #[inline]
+    pub fn sync_key(&self) -> u32 {
+        self.sync_key
+    }
+
     /// The SYNC identifier (1005h), if the node has one.
     #[inline]
     pub fn sync_id(&self) -> Option<CanId> {
@@ -915,12 +921,15 @@ fn pack(od: &Od, map: &Mapping) -> [u8; 8] {
         buf[i + 3] = v[3];
         at += s.bytes as usize;
     }
-    // Bytes past the payload are zero (`Frame::data` contract).
-    // The low `len` bytes: two shifts of at most 32 bits each, so `len` 0 and 8 need no test.
-    let half = 4 * u32::from(map.len);
-    let keep = !(u64::MAX.wrapping_shl(half).wrapping_shl(half));
-    let data = u64::from_le_bytes([buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6], buf[7]]);
-    (data & keep).to_le_bytes()
+    // Bytes past the payload are zero (`Frame::data` contract): the last value's bytes past
+    // the cursor (at most three) are cleared, the rest were never written. The cursor ends at
+    // the mapping's length, at most 8.
+    let end = at.min(8);
+    buf[end] = 0;
+    buf[end + 1] = 0;
+    buf[end + 2] = 0;
+    buf[end + 3] = 0;
+    [buf[0], buf[1], buf[2], buf[3], buf[4], buf[5], buf[6], buf[7]]
 }
 
 /// Writes an RPDO's payload into its mapped entries, after checking every value against the
