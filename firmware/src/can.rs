@@ -203,8 +203,12 @@ impl Bus {
     /// fault confinement state.
     pub fn events(&mut self, mut event: impl FnMut(BusEvent)) {
         let can = pac::CAN;
-        if can.rfr(0).read().fovr() {
+        // A frame lost to the full hardware FIFO or to the full software ring: one overrun.
+        let fifo = can.rfr(0).read().fovr();
+        if fifo {
             can.rfr(0).write(|w| w.set_fovr(true));
+        }
+        if RX.lock(|rx| rx.borrow_mut().take_overflow()) | fifo {
             event(BusEvent::RxOverrun);
         }
         let esr = Esr::from_bits(can.esr().read().0);

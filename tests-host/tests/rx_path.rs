@@ -3,8 +3,8 @@
 //!
 //! What the firmware does (`firmware/src/can.rs`, `firmware/src/run.rs`): the bxCAN puts each
 //! frame that passes the node's acceptance filters into its receive FIFO 0 (three mailboxes);
-//! the FIFO interrupt moves them at once into Embassy's `BufferedCanRx` queue of `RX_DEPTH`
-//! frames (a full queue drops the frame without a trace, embassy-stm32 0.6 `RxMode::on_interrupt`);
+//! the FIFO interrupt moves them at once into the board's ring of `RX_DEPTH` frames
+//! (`board_plan::rxq`; a full ring drops the frame and the loop reports it as an `RxOverrun`);
 //! the main loop takes every queued frame, calls `on_frame` and carries out the node's outputs
 //! after each, then reads the controller's events (FOVR, a frame lost to a full FIFO, is one
 //! `RxOverrun` however many were lost). A `Store` output blocks the loop for the save: the page

@@ -1,7 +1,8 @@
 //! The receive queue: the bxCAN's receive interrupt moves each frame out of the hardware FIFO
 //! (three frames deep) into this ring at once, and the main loop takes them in order between
-//! two turns. A frame that finds the ring full is dropped, as Embassy's receive channel did;
-//! the hardware FIFO's own overrun is the controller's (`BusEvent::RxOverrun`).
+//! two turns. A frame that finds the ring full is dropped and the ring remembers it
+//! ([`RxRing::take_overflow`]): the firmware reports it as the hardware FIFO's own overrun is
+//! reported, one `BusEvent::RxOverrun` however many were lost (D-FW-9), so no loss is silent.
 
 use od_core::frame::{CanId, Frame};
 
@@ -16,6 +17,8 @@ pub struct RxRing {
     head: usize,
     /// Frames held.
     len: usize,
+    /// A frame was dropped since the last [`RxRing::take_overflow`].
+    overflow: bool,
 }
 
 impl Default for RxRing {
@@ -28,12 +31,13 @@ impl RxRing {
     /// An empty ring (a `const fn`, for a `static`).
     pub const fn new() -> RxRing {
         const EMPTY: Frame = Frame { id: CanId::Std(0), rtr: false, len: 0, data: [0; 8] };
-        RxRing { frames: [EMPTY; DEPTH], head: 0, len: 0 }
+        RxRing { frames: [EMPTY; DEPTH], head: 0, len: 0, overflow: false }
     }
 
-    /// Adds a frame after the newest; drops it if the ring is full.
+    /// Adds a frame after the newest; drops it, and remembers the loss, if the ring is full.
     pub fn push(&mut self, frame: Frame) {
         if self.len == DEPTH {
+            self.overflow = true;
             return;
         }
         self.frames[(self.head + self.len) % DEPTH] = frame;
@@ -49,6 +53,11 @@ impl RxRing {
         self.head = (self.head + 1) % DEPTH;
         self.len -= 1;
         Some(frame)
+    }
+
+    /// Was a frame dropped since the last call? Clears the mark.
+    pub fn take_overflow(&mut self) -> bool {
+        core::mem::take(&mut self.overflow)
     }
 
     /// Nothing waiting?
@@ -101,5 +110,19 @@ mod tests {
             assert_eq!(r.pop().unwrap().id, CanId::Std(i), "the oldest kept");
         }
         assert_eq!(r.pop(), None);
+        assert!(r.take_overflow(), "the loss is remembered");
+        assert!(!r.take_overflow(), "and reported once");
+    }
+
+    #[test]
+    fn a_ring_that_never_fills_reports_no_loss() {
+        let mut r = RxRing::new();
+        for i in 0..DEPTH as u16 {
+            r.push(Frame::std(i, &[]));
+        }
+        assert!(!r.take_overflow());
+        r.pop();
+        r.push(Frame::std(0, &[]));
+        assert!(!r.take_overflow());
     }
 }
