@@ -356,8 +356,13 @@ impl Device for Ap10t {
             }
             // Only a display that still has the factory node-ID takes part (manual 4.6.2: "all
             // devices that have the current Node-ID 7Dh"); the answer waits for the key.
-            // Elsewhere the value is only stored.
+            // Elsewhere the value is only stored. Not while a store is under way (a 1010h save
+            // whose answer a reset dropped): its result would answer this write before any key,
+            // and the key could not store the ID; refused as a second save is (D-AP-25).
             hooks::AUTO_ID if core.node_id == DEFAULT_NODE_ID => {
+                if core.storage.saving() {
+                    return Err(Abort::DEVICE_STATE);
+                }
                 if !self.panel.start_auto_id(value as u8) {
                     return Err(Abort::INVALID_VALUE);
                 }
