@@ -8,7 +8,8 @@
 //! share them:
 //!
 //! - [`SpeedEstimator`]: the difference of successive positions over an integration time;
-//! - [`area_state`] and [`WorkAreas`]: the 6400h state bits from the 6401h/6402h limits;
+//! - [`area_state`] and [`WorkAreas`]: the 6400h state bits from the 6401h/6402h limits (each
+//!   encoder writes them at its resolved positions);
 //! - [`alarms`] / [`warnings`]: the 6503h/6505h bits;
 //! - [`operating_status`]: 6500h from 6000h;
 //! - [`OperatingTime`]: the 6508h hour meter in tenths of an hour;
@@ -264,31 +265,9 @@ pub struct WorkAreas {
 }
 
 impl WorkAreas {
-    /// Reads the limits from `od` (signed when the entries are INTEGER32), computes both
-    /// states for `position`, writes them to 6400h.01/.02 and keeps them. Returns the states.
-    /// A dictionary without 6400h-6402h leaves everything untouched.
-    pub fn evaluate(&mut self, od: &mut Od, position: i64) -> [u8; 2] {
-        for k in 0..2u8 {
-            let limit = |od: &Od, index: u16| od.pos(index, k + 1).map(|p| od.entry(p).dtype.to_i64(od.get(p)));
-            if let (Some(low), Some(high)) = (limit(od, 0x6401), limit(od, 0x6402)) {
-                let s = area_state(position, low, high);
-                self.state[k as usize] = s;
-                od.set_value(0x6400, k + 1, s as u32);
-            }
-        }
-        self.state
-    }
-
     /// Is work area `k` (0 or 1) violated?
     pub const fn outside(&self, k: usize) -> bool {
         self.state[k] & AREA_OUTSIDE != 0
-    }
-
-    /// Clears the states (and 6400h.01/.02): no position known.
-    pub fn clear(&mut self, od: &mut Od) {
-        self.state = [0; 2];
-        od.set_value(0x6400, 1, 0);
-        od.set_value(0x6400, 2, 0);
     }
 }
 
