@@ -32,28 +32,36 @@ pub enum LedState {
     DoubleFlash,
 }
 
-/// (period, on-intervals) of a blinking pattern, in milliseconds.
-const fn pattern(state: LedState) -> (u64, &'static [(u64, u64)]) {
+/// The length of a pattern's slot: every CiA 303-3 pattern switches on multiples of 50 ms.
+const SLOT_US: u32 = 50_000;
+
+/// (period in slots, lit slots) of a blinking pattern: bit `k` of the mask set when the LED is
+/// lit in slot `k` (from `k` × 50 ms to `k + 1` × 50 ms into the period). The longest period,
+/// the double flash's 1600 ms, is 32 slots. Steady states have no slots.
+const fn pattern(state: LedState) -> (u32, u32) {
     match state {
-        LedState::Off => (0, &[]),
-        LedState::On => (0, &[]),
-        LedState::Flickering => (100, &[(0, 50)]),
-        LedState::Flashing => (400, &[(0, 200)]),
-        LedState::SingleFlash => (1200, &[(0, 200)]),
-        LedState::DoubleFlash => (1600, &[(0, 200), (400, 600)]),
+        LedState::Off | LedState::On => (0, 0),
+        // 50 ms on, 50 ms off.
+        LedState::Flickering => (2, 0b1),
+        // 200 ms on, 200 ms off.
+        LedState::Flashing => (8, 0xF),
+        // 200 ms on, 1000 ms off.
+        LedState::SingleFlash => (24, 0xF),
+        // 200 ms on, 200 ms off, 200 ms on, 1000 ms off.
+        LedState::DoubleFlash => (32, 0xF0F),
     }
 }
 
-/// Offset of the second LED of an alternating pair: the red LED flickers half a period later.
-const ANTIPHASE_MS: u64 = 50;
-
 impl LedState {
-    /// Where `now` falls in the pattern's period of `period_ms`, in µs, the antiphase LED half
-    /// a flicker later.
-    fn phase(self, now: Instant, antiphase: bool, period_ms: u64) -> u32 {
-        let period = period_ms as u32 * 1000;
-        let shift = if antiphase && self == LedState::Flickering { ANTIPHASE_MS as u32 * 1000 } else { 0 };
-        (now.phase(period) + shift) % period
+    /// The pattern's period in slots, its lit slots, the slot `now` falls in and the
+    /// microseconds `now` lies into that slot; the antiphase LED (the red one, when
+    /// flickering) one slot, half a flicker, later.
+    fn slot(self, now: Instant, antiphase: bool) -> (u32, u32, u32, u32) {
+        let (slots, mask) = pattern(self);
+        let phase = now.phase(slots * SLOT_US);
+        let shift = (antiphase && self == LedState::Flickering) as u32;
+        let slot = phase / SLOT_US + shift;
+        (slots, mask, if slot >= slots { slot - slots } else { slot }, phase % SLOT_US)
     }
 
     /// Is the LED lit at `now`? `antiphase`: this LED is the second of an alternating pair
@@ -63,34 +71,30 @@ impl LedState {
             LedState::Off => false,
             LedState::On => true,
             _ => {
-                let (period, on) = pattern(self);
-                let phase = self.phase(now, antiphase, period) as u64;
-                on.iter().any(|&(a, b)| phase >= a * 1000 && phase < b * 1000)
+                let (_, mask, slot, _) = self.slot(now, antiphase);
+                mask >> slot & 1 != 0
             }
         }
     }
 
     /// When the LED next turns on or off after `now` (`None` when it never does).
     pub fn next_change(self, now: Instant, antiphase: bool) -> Option<Instant> {
-        let (period, on) = pattern(self);
-        if on.is_empty() {
+        if matches!(self, LedState::Off | LedState::On) {
             return None;
         }
-        let shift = if antiphase && self == LedState::Flickering { ANTIPHASE_MS * 1000 } else { 0 };
-        let t = now.as_micros() + shift;
-        let start = t - self.phase(now, antiphase, period) as u64;
-        let period = period * 1000;
-        let mut next = u64::MAX;
-        for base in [start, start + period] {
-            for &(a, b) in on {
-                for edge in [base + a * 1000, base + b * 1000] {
-                    if edge > t && edge < next {
-                        next = edge;
-                    }
-                }
+        let (slots, mask, slot, into) = self.slot(now, antiphase);
+        let lit = mask >> slot & 1;
+        // Every blinking pattern has lit and dark slots: the LED changes within one period.
+        let mut k = 1;
+        let mut s = slot;
+        loop {
+            s = if s + 1 == slots { 0 } else { s + 1 };
+            if mask >> s & 1 != lit {
+                break;
             }
+            k += 1;
         }
-        Some(Instant::from_micros(next - shift))
+        Some(Instant::from_micros(now.as_micros() - into as u64 + (k * SLOT_US) as u64))
     }
 }
 
@@ -260,6 +264,62 @@ mod tests {
         let l = Leds::from_inputs(&LedInputs { lss_configuration: true, bus_off: true, over_speed: true, ..base });
         assert_eq!((l.green, l.red, l.yellow), (LedState::Flickering, LedState::Flickering, LedState::On));
         assert_eq!(Leds::from_inputs(&base).yellow, LedState::Off);
+    }
+
+    /// The patterns as on-intervals in milliseconds within their period, as the manual's Table 2
+    /// prints them, and the LED state at `now` and its next edge computed from them: the
+    /// reference the slot masks are checked against.
+    fn reference(state: LedState, now: Instant, antiphase: bool) -> (bool, Option<Instant>) {
+        let (period, on): (u64, &[(u64, u64)]) = match state {
+            LedState::Off => return (false, None),
+            LedState::On => return (true, None),
+            LedState::Flickering => (100, &[(0, 50)]),
+            LedState::Flashing => (400, &[(0, 200)]),
+            LedState::SingleFlash => (1200, &[(0, 200)]),
+            LedState::DoubleFlash => (1600, &[(0, 200), (400, 600)]),
+        };
+        let shift = if antiphase && state == LedState::Flickering { 50_000 } else { 0 };
+        let t = now.as_micros() + shift;
+        let phase = t % (period * 1000);
+        let lit = on.iter().any(|&(a, b)| phase >= a * 1000 && phase < b * 1000);
+        let start = t - phase;
+        let mut next = u64::MAX;
+        for base in [start, start + period * 1000] {
+            for &(a, b) in on {
+                for edge in [base + a * 1000, base + b * 1000] {
+                    if edge > t && edge < next {
+                        next = edge;
+                    }
+                }
+            }
+        }
+        (lit, Some(Instant::from_micros(next - shift)))
+    }
+
+    #[test]
+    fn slot_masks_follow_the_printed_patterns() {
+        let states = [
+            LedState::Off,
+            LedState::On,
+            LedState::Flickering,
+            LedState::Flashing,
+            LedState::SingleFlash,
+            LedState::DoubleFlash,
+        ];
+        let mut x = 0x2545_F491_4F6C_DD1Du64;
+        for i in 0..200_000u64 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            // Every microsecond of the first 3.2 s, then instants up to 2^50 µs (35 years).
+            let now = Instant::from_micros(if i < 100_000 { i * 32 } else { x >> 14 });
+            for state in states {
+                for anti in [false, true] {
+                    let got = (state.lit(now, anti), state.next_change(now, anti));
+                    assert_eq!(got, reference(state, now, anti), "{state:?} antiphase {anti} at {now:?}");
+                }
+            }
+        }
     }
 
     #[test]
