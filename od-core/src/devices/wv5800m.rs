@@ -340,6 +340,10 @@ const C_LIMIT_LOW: usize = 4;
 const C_LIMIT_HIGH: usize = 5;
 const C_PASSIVE: usize = 6;
 const C_BUS_OFF: usize = 7;
+/// The conditions set from the encoder's state at every evaluation, in condition-number order
+/// (the bus-off recovery, an event, is reported on its own).
+const CONDITIONS: [Condition; 7] =
+    [EMCY_POSITION, EMCY_AREA_1, EMCY_AREA_2, EMCY_VELOCITY, EMCY_LIMIT_LOW, EMCY_LIMIT_HIGH, EMCY_PASSIVE];
 
 /// A WV5800M / WH5800M.
 #[derive(Clone, Debug)]
@@ -540,14 +544,15 @@ impl Wv5800m {
     }
 
     fn report(&mut self, core: &mut Core, now: Instant) {
+        let wanted = (self.fault as u16) << C_POSITION
+            | (self.areas.outside(0) as u16) << C_AREA_1
+            | (self.areas.outside(1) as u16) << C_AREA_2
+            | (self.over_speed as u16) << C_VELOCITY
+            | (self.limit_low as u16) << C_LIMIT_LOW
+            | (self.limit_high as u16) << C_LIMIT_HIGH
+            | (self.passive as u16) << C_PASSIVE;
         let c = &mut self.conditions;
-        c.update(core, C_POSITION, EMCY_POSITION, self.fault, now);
-        c.update(core, C_AREA_1, EMCY_AREA_1, self.areas.outside(0), now);
-        c.update(core, C_AREA_2, EMCY_AREA_2, self.areas.outside(1), now);
-        c.update(core, C_VELOCITY, EMCY_VELOCITY, self.over_speed, now);
-        c.update(core, C_LIMIT_LOW, EMCY_LIMIT_LOW, self.limit_low, now);
-        c.update(core, C_LIMIT_HIGH, EMCY_LIMIT_HIGH, self.limit_high, now);
-        c.update(core, C_PASSIVE, EMCY_PASSIVE, self.passive, now);
+        c.update_all(core, &CONDITIONS, wanted, now);
         if self.recovered {
             // An event: reported once the bus works again and cleared at once (D-ENC-5).
             self.recovered = false;

@@ -71,6 +71,9 @@ const C_AREA_2: usize = 2;
 const C_SPEED: usize = 3;
 const C_PASSIVE: usize = 4;
 const C_BUS_OFF: usize = 5;
+/// The conditions [`Linear`] sets from its state at every evaluation, in condition-number
+/// order (the bus-off recovery, an event, is reported on its own).
+const CONDITIONS: [Condition; 5] = [EMCY_POSITION, EMCY_AREA_1, EMCY_AREA_2, EMCY_SPEED, EMCY_PASSIVE];
 
 /// Measuring steps of a raw wire extension `raw_um` (µm) at `resolution_nm` nm per step,
 /// truncated towards zero. A resolution of 0 (never accepted by 6005h) gives 0.
@@ -451,14 +454,13 @@ impl Linear {
     /// Reports the EMCY conditions that changed (the producer holds back what falls due
     /// before the boot-up).
     fn report(&mut self, core: &mut Core, now: Instant) {
+        let wanted = (self.fault as u16) << C_POSITION
+            | (self.areas.outside(0) as u16) << C_AREA_1
+            | (self.areas.outside(1) as u16) << C_AREA_2
+            | ((self.spec.speed_error && self.speed_fault) as u16) << C_SPEED
+            | (self.passive as u16) << C_PASSIVE;
         let c = &mut self.conditions;
-        c.update(core, C_POSITION, EMCY_POSITION, self.fault, now);
-        c.update(core, C_AREA_1, EMCY_AREA_1, self.areas.outside(0), now);
-        c.update(core, C_AREA_2, EMCY_AREA_2, self.areas.outside(1), now);
-        if self.spec.speed_error {
-            c.update(core, C_SPEED, EMCY_SPEED, self.speed_fault, now);
-        }
-        c.update(core, C_PASSIVE, EMCY_PASSIVE, self.passive, now);
+        c.update_all(core, &CONDITIONS, wanted, now);
         if self.recovered {
             // The recovery is an event: reported once the bus works again, and cleared at
             // once, since its cause (the bus-off) is gone.

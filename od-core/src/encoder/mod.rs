@@ -374,6 +374,19 @@ impl EmcyConditions {
         true
     }
 
+    /// Sets conditions `0 .. conds.len()` at once, condition `n` ([`Condition`] `conds[n]`)
+    /// to bit `n` of `wanted`, and reports each that changed, in the order of `conds`: what
+    /// [`EmcyConditions::update`] does for each in turn, in one loop over a table.
+    pub fn update_all(&mut self, core: &mut Core, conds: &[Condition], wanted: u16, now: Instant) {
+        for (n, cond) in conds.iter().enumerate() {
+            let bit = 1u16 << (n % MAX_CONDITIONS);
+            if (self.active ^ wanted) & bit != 0 {
+                self.active ^= bit;
+                emcy::set_error(core, cond.code, cond.register, wanted & bit != 0, now);
+            }
+        }
+    }
+
     /// Is condition `n` active?
     pub const fn is_active(&self, n: usize) -> bool {
         self.active & (1 << (n % MAX_CONDITIONS)) != 0
