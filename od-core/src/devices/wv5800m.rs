@@ -474,7 +474,7 @@ impl Wv5800m {
             revolutions: n,
             apu: self.get(od, at.apu).clamp(1, MAX_APU),
             ccw: self.get(od, at.operating) as u16 & DIRECTION_BIT != 0,
-            calibration: crate::arith::rem_euclid(self.get(od, at.calibration) as i32 as i64, r),
+            calibration: rotary::wrap(self.get(od, at.calibration) as i32, r),
             preset: self.get(od, at.preset) as i32,
             offset: self.get(od, at.offset) as i32,
         }

@@ -30,8 +30,7 @@
 //!
 //! The decisions are in `docs/decisions.md`, "WV5800M".
 
-use crate::arith;
-use crate::encoder::{shortest_delta, Window};
+use crate::encoder::Window;
 use crate::od::{Access::*, DataType::*, Entry, Group, Hook};
 
 /// Physical measuring steps per revolution (6501h).
@@ -169,8 +168,8 @@ impl Scaling {
     pub const fn position(&self, raw: u32) -> u32 {
         let t = self.total();
         // Each term reduced into 0 .. T (T < 2^28), so their sum stays within 32 bits.
-        let preset = arith::rem_euclid(self.preset as i64, t);
-        let offset = arith::rem_euclid(self.offset as i64, t);
+        let preset = wrap(self.preset, t);
+        let offset = wrap(self.offset, t);
         (self.measured(raw) % t + preset + offset) % t
     }
 
@@ -196,10 +195,40 @@ impl Scaling {
     }
 }
 
+/// `x` modulo `m` in `0 .. m` (0 for `m == 0`): the Euclidean remainder of a 32-bit value,
+/// [`crate::arith::rem_euclid`] without its 64-bit operand. The scaling's signed parameters
+/// (6003h, 2001h, 6509h) are 32-bit.
+#[inline(never)]
+pub const fn wrap(x: i32, m: u32) -> u32 {
+    if m == 0 {
+        return 0;
+    }
+    let r = x.unsigned_abs() % m;
+    if x < 0 && r != 0 {
+        m - r
+    } else {
+        r
+    }
+}
+
 /// The signed raw movement from `old` to `new` (600Ch values) on the wrapping raw circle of
 /// `raw_range` counts, in the counting direction.
+///
+/// [`crate::encoder::shortest_delta`] of the two counts in 32 bits: both reduced onto the circle, their
+/// difference modulo `raw_range` without a wrap, then the shorter way round.
 pub const fn raw_delta(new: u32, old: u32, raw_range: u32, ccw: bool) -> i64 {
-    let d = shortest_delta(new as i64, old as i64, raw_range);
+    let m = raw_range;
+    let d = if m == 0 {
+        new as i64 - old as i64
+    } else {
+        let (a, b) = (new % m, old % m);
+        let r = if a >= b { a - b } else { a + (m - b) };
+        if r > (m - 1) / 2 {
+            r as i64 - m as i64
+        } else {
+            r as i64
+        }
+    };
     if ccw {
         -d
     } else {
@@ -243,6 +272,7 @@ pub const fn work_area_state(position: u32, low: i32, high: i32) -> u8 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::encoder::shortest_delta;
     use proptest::prelude::*;
 
     const REVS: [u32; 4] = [1, 16, 256, 4096];
@@ -349,6 +379,24 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn wrap_is_the_euclidean_remainder(x in any::<i32>(), m in any::<u32>()) {
+            prop_assert_eq!(wrap(x, m), crate::arith::rem_euclid(x as i64, m));
+            prop_assert_eq!(wrap(x, m % 70_000), crate::arith::rem_euclid(x as i64, m % 70_000));
+            prop_assert_eq!(wrap(i32::MIN + (m % 3) as i32, m), crate::arith::rem_euclid(i32::MIN as i64 + (m % 3) as i64, m));
+        }
+
+        #[test]
+        fn raw_delta_is_the_shortest_delta(new in any::<u32>(), old in any::<u32>(), m in any::<u32>(), k in 0usize..6, ccw in any::<bool>()) {
+            // Any modulus, the four raw ranges and no wrap (0), with counts on and off the circle.
+            let m = [m, raw_range(1), raw_range(16), raw_range(256), raw_range(4096), 0][k];
+            let d = shortest_delta(new as i64, old as i64, m);
+            prop_assert_eq!(raw_delta(new, old, m, ccw), if ccw { -d } else { d });
+            if m != 0 {
+                prop_assert_eq!(raw_delta(new % m, old % m, m, ccw), if ccw { -d } else { d });
+            }
+        }
+
         #[test]
         fn position_stays_in_range(s in any_scaling(), raw in any::<u32>()) {
             let raw = raw % s.raw_range();
