@@ -52,50 +52,69 @@ const fn pattern(state: LedState) -> (u32, u32) {
     }
 }
 
+/// Slots of the common cycle, 4.8 s: a multiple of every pattern's period (2, 8, 24 and 32
+/// slots), so a pattern's slot is the cycle's slot modulo its period.
+const CYCLE_SLOTS: u32 = 96;
+
+/// The slot of the common cycle `now` falls in and the microseconds `now` lies into it: one
+/// remainder for every LED.
+fn clock(now: Instant) -> (u32, u32) {
+    let phase = now.phase(CYCLE_SLOTS * SLOT_US);
+    (phase / SLOT_US, phase % SLOT_US)
+}
+
 impl LedState {
-    /// The pattern's period in slots, its lit slots, the slot `now` falls in and the
-    /// microseconds `now` lies into that slot; the antiphase LED (the red one, when
-    /// flickering) one slot, half a flicker, later.
-    fn slot(self, now: Instant, antiphase: bool) -> (u32, u32, u32, u32) {
-        let (slots, mask) = pattern(self);
-        let phase = now.phase(slots * SLOT_US);
+    /// The pattern's period in slots (1 for a steady state), its lit slots (all or none for
+    /// a steady state) and its slot in the common cycle's slot `cycle`; the antiphase LED (the
+    /// red one, when flickering) one slot, half a flicker, later.
+    fn slot(self, cycle: u32, antiphase: bool) -> (u32, u32, u32) {
+        let (slots, mask) = match pattern(self) {
+            (0, _) => (1, (self == LedState::On) as u32),
+            p => p,
+        };
         let shift = (antiphase && self == LedState::Flickering) as u32;
-        let slot = phase / SLOT_US + shift;
-        (slots, mask, if slot >= slots { slot - slots } else { slot }, phase % SLOT_US)
+        (slots, mask, (cycle + shift) % slots)
+    }
+
+    /// Is the LED lit in the common cycle's slot `cycle`?
+    fn lit_in(self, cycle: u32, antiphase: bool) -> bool {
+        let (_, mask, slot) = self.slot(cycle, antiphase);
+        mask >> slot & 1 != 0
+    }
+
+    /// In how many slot boundaries from the common cycle's slot `cycle` the LED changes
+    /// (`u32::MAX` when it never does).
+    fn slots_to_change(self, cycle: u32, antiphase: bool) -> u32 {
+        let (slots, mask, slot) = self.slot(cycle, antiphase);
+        let lit = mask >> slot & 1;
+        // Every blinking pattern has lit and dark slots: it changes within one period.
+        let mut k = 1;
+        while k <= slots {
+            if mask >> ((slot + k) % slots) & 1 != lit {
+                return k;
+            }
+            k += 1;
+        }
+        u32::MAX
     }
 
     /// Is the LED lit at `now`? `antiphase`: this LED is the second of an alternating pair
     /// (the red one), which matters for [`LedState::Flickering`] only.
     pub fn lit(self, now: Instant, antiphase: bool) -> bool {
-        match self {
-            LedState::Off => false,
-            LedState::On => true,
-            _ => {
-                let (_, mask, slot, _) = self.slot(now, antiphase);
-                mask >> slot & 1 != 0
-            }
-        }
+        self.lit_in(clock(now).0, antiphase)
     }
 
     /// When the LED next turns on or off after `now` (`None` when it never does).
     pub fn next_change(self, now: Instant, antiphase: bool) -> Option<Instant> {
-        if matches!(self, LedState::Off | LedState::On) {
-            return None;
-        }
-        let (slots, mask, slot, into) = self.slot(now, antiphase);
-        let lit = mask >> slot & 1;
-        // Every blinking pattern has lit and dark slots: the LED changes within one period.
-        let mut k = 1;
-        let mut s = slot;
-        loop {
-            s = if s + 1 == slots { 0 } else { s + 1 };
-            if mask >> s & 1 != lit {
-                break;
-            }
-            k += 1;
-        }
-        Some(Instant::from_micros(now.as_micros() - into as u64 + (k * SLOT_US) as u64))
+        let (cycle, into) = clock(now);
+        after(now, into, self.slots_to_change(cycle, antiphase))
     }
+}
+
+/// `k` slot boundaries after `now`, which lies `into` µs into its slot (`None` for
+/// `u32::MAX`, never).
+fn after(now: Instant, into: u32, k: u32) -> Option<Instant> {
+    (k != u32::MAX).then(|| Instant::from_micros(now.as_micros() - into as u64 + k as u64 * SLOT_US as u64))
 }
 
 /// The conditions the LEDs show.
@@ -171,15 +190,20 @@ impl Leds {
 
     /// Which LEDs are lit at `now`.
     pub fn lit(&self, now: Instant) -> Lit {
-        Lit { green: self.green.lit(now, false), red: self.red.lit(now, true), yellow: self.yellow.lit(now, false) }
+        let (cycle, _) = clock(now);
+        Lit {
+            green: self.green.lit_in(cycle, false),
+            red: self.red.lit_in(cycle, true),
+            yellow: self.yellow.lit_in(cycle, false),
+        }
     }
 
     /// When any LED next changes after `now` (`None`: all steady).
     pub fn next_change(&self, now: Instant) -> Option<Instant> {
-        let a = self.green.next_change(now, false);
-        let b = self.red.next_change(now, true);
-        let c = self.yellow.next_change(now, false);
-        crate::time::earliest(crate::time::earliest(a, b), c)
+        let (cycle, into) = clock(now);
+        let k = self.green.slots_to_change(cycle, false);
+        let k = k.min(self.red.slots_to_change(cycle, true));
+        after(now, into, k.min(self.yellow.slots_to_change(cycle, false)))
     }
 }
 
@@ -319,6 +343,17 @@ mod tests {
                     assert_eq!(got, reference(state, now, anti), "{state:?} antiphase {anti} at {now:?}");
                 }
             }
+            // Three LEDs at once: each lit as its own reference says, the earliest edge next.
+            let leds = Leds {
+                green: states[(x % 6) as usize],
+                red: states[(x / 6 % 6) as usize],
+                yellow: states[(x / 36 % 6) as usize],
+            };
+            let (g, r, y) =
+                (reference(leds.green, now, false), reference(leds.red, now, true), reference(leds.yellow, now, false));
+            assert_eq!(leds.lit(now), Lit { green: g.0, red: r.0, yellow: y.0 }, "{leds:?} at {now:?}");
+            let next = crate::time::earliest(crate::time::earliest(g.1, r.1), y.1);
+            assert_eq!(leds.next_change(now), next, "{leds:?} at {now:?}");
         }
     }
 
