@@ -248,8 +248,13 @@ pub fn speed_value(window: Window, multiplier: u32, divisor: u32) -> i64 {
 }
 
 /// Is the raw movement of `window` faster than the maximum speed (6000 rpm)?
+///
+/// `|delta| × 10^6 > 1,638,400 × elapsed`, that is `|delta| × 625 > elapsed × 1024`, in 64
+/// bits: with `|delta| = 1024 q + r` (`r < 1024`) the right side is below the left exactly when
+/// `elapsed < 625 q + ⌈625 r / 1024⌉`, a sum below 2^64 for every `delta`.
 pub fn over_speed(window: Window) -> bool {
-    window.delta.unsigned_abs() as u128 * 1_000_000 > MAX_SPEED_INC_PER_S as u128 * window.elapsed_us as u128
+    let a = window.delta.unsigned_abs();
+    window.elapsed_us < (a >> 10) * 625 + ((a as u32 & 1023) * 625 + 1023) as u64 / 1024
 }
 
 /// The speed conditions of the 2003h/2004h limit speeds (in 6030h.01 units): `(low, high)` is
@@ -384,6 +389,20 @@ mod tests {
             prop_assert_eq!(wrap(x, m), crate::arith::rem_euclid(x as i64, m));
             prop_assert_eq!(wrap(x, m % 70_000), crate::arith::rem_euclid(x as i64, m % 70_000));
             prop_assert_eq!(wrap(i32::MIN + (m % 3) as i32, m), crate::arith::rem_euclid(i32::MIN as i64 + (m % 3) as i64, m));
+        }
+
+        #[test]
+        fn over_speed_is_the_128_bit_comparison(delta in any::<i64>(), elapsed in any::<u64>(), k in 0usize..4) {
+            // Any window, and windows near the limit (1638.4 increments per millisecond).
+            let (delta, elapsed) = match k {
+                0 => (delta, elapsed),
+                1 => (delta >> (elapsed % 64), elapsed >> (delta as u64 % 64)),
+                2 => ((elapsed >> 20) as i64 * 16_384 / 10 + delta % 3, elapsed >> 20),
+                _ => (delta, (delta.unsigned_abs() as u128 * 625 / 1024) as u64 + elapsed % 3),
+            };
+            let w = Window { delta, elapsed_us: elapsed };
+            let wide = delta.unsigned_abs() as u128 * 1_000_000 > MAX_SPEED_INC_PER_S as u128 * elapsed as u128;
+            prop_assert_eq!(over_speed(w), wide, "{:?}", w);
         }
 
         #[test]
