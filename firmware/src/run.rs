@@ -43,12 +43,6 @@ pub fn boot<D: CanopenDevice>(device: D, params: &mut Params, uid: &[u8; 12]) ->
         let (_, core) = node.split();
         program_serial(&mut core.od, serial_from_uid(uid));
     }
-    defmt::info!(
-        "boot: node-ID {=u8}, {=u32} kbit/s, parameters {=str}",
-        node.context().node_id,
-        node.context().bitrate.kbit(),
-        if loaded.image().is_some() { "stored" } else { "defaults" }
-    );
     node
 }
 
@@ -68,7 +62,6 @@ pub fn boot_j1939<D: J1939Device>(device: D, params: &mut Params, uid: &[u8; 12]
         let _ = image.set(Record::of(e, serial_from_uid(uid)));
     }
     let node = J1939Node::boot(device, &Loaded::Image(image));
-    defmt::info!("boot: J1939 address {=u8}, {=u32} kbit/s", node.context().node_id, node.context().bitrate.kbit());
     node
 }
 
@@ -95,7 +88,6 @@ async fn serve<N: DeviceStation>(
                 node.store_done(result.map_err(|_| ()), now());
             }
             Output::SetBitrate(rate) => {
-                defmt::info!("bit rate {=u32} kbit/s", rate.kbit());
                 bus.set_bitrate(rate, node.listen_only()).await;
             }
         }
