@@ -18,7 +18,7 @@ use core::task::Poll;
 use embassy_futures::select::{select, Either};
 use embassy_stm32::can::Can;
 use embassy_stm32::pac;
-use embassy_time::{with_deadline, Duration, Instant};
+use embassy_time::{Duration, Instant};
 use od_core::node::BusEvent;
 use od_core::{Bitrate, Frame};
 
@@ -104,10 +104,10 @@ impl Bus {
     /// Configures the controller for `rate` and joins the bus (after 11 recessive bits); the
     /// board's receive interrupts fill `boards::mcu::RX`. No filter bank is enabled until
     /// [`Bus::set_filters`]: the controller receives nothing before the node says what it wants.
-    pub async fn start(mut can: Can<'static>, rate: Bitrate) -> Bus {
+    pub fn start(mut can: Can<'static>, rate: Bitrate) -> Bus {
         FilterWriter::begin().end();
         set_timing(&mut can, rate, false);
-        can.enable().await;
+        enable();
         Bus { can, queue: TxQueue::default(), errors: ErrorTracker::default() }
     }
 
@@ -116,25 +116,24 @@ impl Bus {
     /// the old rate: they go out first, as long as the bus takes them within [`FLUSH_TIMEOUT`];
     /// what is left then is dropped. The controller re-joins the bus at the new rate after 11
     /// recessive bits; `silent`: in silent mode (it sends nothing, not even an ACK or an error
-    /// frame, while the node detects the rate, `Node::listen_only`).
-    pub async fn set_bitrate(&mut self, rate: Bitrate, silent: bool) {
-        let _ = with_deadline(crate::wake_at(Instant::now() + FLUSH_TIMEOUT), async {
-            loop {
-                self.pump();
-                let empty = self.queue.is_empty();
-                wait_mailboxes().await;
-                if empty && empty_mailboxes() == 3 {
-                    break;
-                }
+    /// frame, while the node detects the rate, `Node::listen_only`). It returns when the
+    /// controller is back on the bus: the firmware's one task has nothing else to run meanwhile
+    /// (the interrupts still fill the receive ring), so it polls the mailboxes and the clock
+    /// rather than sleeping on them, which keeps the loop's future free of await points for it.
+    pub fn set_bitrate(&mut self, rate: Bitrate, silent: bool) {
+        let deadline = Instant::now() + FLUSH_TIMEOUT;
+        loop {
+            self.pump();
+            if (self.queue.is_empty() && empty_mailboxes() == 3) || Instant::now() >= deadline {
+                break;
             }
-        })
-        .await;
+        }
         for i in 0..3 {
             abort(i);
         }
         self.queue.clear();
         set_timing(&mut self.can, rate, silent);
-        self.can.enable().await;
+        enable();
     }
 
     /// Opens the acceptance filters to every frame (while the node detects the rate: any frame
@@ -228,6 +227,19 @@ impl Bus {
         match select(received(), wait_mailboxes()).await {
             Either::First(()) | Either::Second(()) => {}
         }
+    }
+}
+
+/// Leaves sleep mode with automatic bus-off management on, and waits until the controller has
+/// joined the bus (11 recessive bits): what Embassy's `Can::enable` does, without yielding to an
+/// executor that has nothing else to run.
+fn enable() {
+    let can = pac::CAN;
+    while can.msr().read().slak() {
+        can.mcr().modify(|w| {
+            w.set_abom(true);
+            w.set_sleep(false);
+        });
     }
 }
 

@@ -67,7 +67,7 @@ pub fn boot_j1939<D: J1939Device>(device: D, params: &mut Params, uid: &[u8; 12]
 
 /// Carries out what the node asks for: frames into the transmit queue, parameter saves (answered
 /// when the flash is written), bit-rate switches.
-async fn serve<N: DeviceStation>(
+fn serve<N: DeviceStation>(
     node: &mut N,
     bus: &mut Bus,
     params: &mut Params,
@@ -88,7 +88,7 @@ async fn serve<N: DeviceStation>(
                 node.store_done(result.map_err(|_| ()), now());
             }
             Output::SetBitrate(rate) => {
-                bus.set_bitrate(rate, node.listen_only()).await;
+                bus.set_bitrate(rate, node.listen_only());
             }
         }
     }
@@ -133,10 +133,10 @@ where
     // The transceiver leaves standby only now; the controller, in sleep until `Bus::start`
     // enables it, keeps its TX pin recessive meanwhile.
     standby.set_low();
-    let mut bus = Bus::start(can, node.context().bitrate).await;
+    let mut bus = Bus::start(can, node.context().bitrate);
     // Automatic bit-rate detection: silent from the start (D-AP-20).
     if node.listen_only() {
-        bus.set_bitrate(node.context().bitrate, true).await;
+        bus.set_bitrate(node.context().bitrate, true);
     }
     watchdog.unleash();
 
@@ -152,13 +152,13 @@ where
         // than one call's worth (`od_core::output::WORST_CALL_FRAMES`) and drops nothing.
         while let Some(frame) = bus.receive() {
             node.on_frame(&frame, t);
-            serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
+            serve(&mut node, &mut bus, &mut params, &mut watchdog);
         }
         bus.events(|event| node.on_bus_event(event, t));
-        serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
+        serve(&mut node, &mut bus, &mut params, &mut watchdog);
         if node.next_deadline().is_some_and(|d| d <= t) {
             node.poll(t);
-            serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
+            serve(&mut node, &mut bus, &mut params, &mut watchdog);
         }
         if node.context().out.dropped() != lost_outputs {
             lost_outputs = node.context().out.dropped();
