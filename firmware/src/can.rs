@@ -12,11 +12,11 @@ use board_plan::filters::{each_bank, mask32, Bank, BANKS};
 use board_plan::mailbox::{self, Slot};
 use board_plan::timing;
 use board_plan::txq::TxQueue;
+use boards::mcu::CanPeri;
 use boards::mcu::{RX, RX_READY, TX_DONE};
 use core::future::poll_fn;
 use core::task::Poll;
 use embassy_futures::select::{select, Either};
-use embassy_stm32::can::Can;
 use embassy_stm32::pac;
 use embassy_time::{Duration, Instant};
 use od_core::node::BusEvent;
@@ -35,19 +35,34 @@ pub const FLUSH_TIMEOUT: Duration = Duration::from_millis(100);
 
 /// The node's CAN bus.
 pub struct Bus {
-    can: Can<'static>,
+    _can: CanPeri,
     queue: TxQueue,
     errors: ErrorTracker,
 }
 
 /// Sets the bit timing for `rate` (`board_plan::timing`, computed at compile time), in silent
-/// mode or not: CAN_BTR written whole (loop-back off) while the controller is in
-/// initialisation mode, which `modify_config` enters and, when dropped, leaves.
-fn set_timing(can: &mut Can<'static>, rate: Bitrate, silent: bool) {
-    let init = can.modify_config();
+/// mode or not: CAN_BTR written whole (loop-back off) in initialisation mode, then back to
+/// sleep mode, where [`enable`] takes it from (the steps of Embassy's `modify_config`).
+fn set_timing(rate: Bitrate, silent: bool) {
+    let can = pac::CAN;
+    can.mcr().modify(|w| {
+        w.set_sleep(false);
+        w.set_inrq(true);
+    });
+    while {
+        let msr = can.msr().read();
+        msr.slak() || !msr.inak()
+    } {}
     let silm = if silent { 1 << 31 } else { 0 };
-    pac::CAN.btr().write(|w| w.0 = timing::of(rate).btr() | silm);
-    drop(init);
+    can.btr().write(|w| w.0 = timing::of(rate).btr() | silm);
+    can.mcr().modify(|w| {
+        w.set_sleep(true);
+        w.set_inrq(false);
+    });
+    while {
+        let msr = can.msr().read();
+        !msr.slak() || msr.inak()
+    } {}
 }
 
 /// The acceptance filters, written whole rather than through the driver's per-bank calls
@@ -104,11 +119,11 @@ impl Bus {
     /// Configures the controller for `rate` and joins the bus (after 11 recessive bits); the
     /// board's receive interrupts fill `boards::mcu::RX`. No filter bank is enabled until
     /// [`Bus::set_filters`]: the controller receives nothing before the node says what it wants.
-    pub fn start(mut can: Can<'static>, rate: Bitrate) -> Bus {
+    pub fn start(can: CanPeri, rate: Bitrate) -> Bus {
         FilterWriter::begin().end();
-        set_timing(&mut can, rate, false);
+        set_timing(rate, false);
         enable();
-        Bus { can, queue: TxQueue::default(), errors: ErrorTracker::default() }
+        Bus { _can: can, queue: TxQueue::default(), errors: ErrorTracker::default() }
     }
 
     /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset, a candidate of
@@ -132,7 +147,7 @@ impl Bus {
             abort(i);
         }
         self.queue.clear();
-        set_timing(&mut self.can, rate, silent);
+        set_timing(rate, silent);
         enable();
     }
 

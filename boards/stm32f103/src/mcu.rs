@@ -6,39 +6,17 @@ use board_plan::reset::ResetCause;
 use board_plan::rxq::RxRing;
 use board_plan::straps::Straps;
 use core::cell::RefCell;
-use embassy_stm32::can::{self, Can};
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
-use embassy_stm32::interrupt::typelevel::{self, Binding};
+use embassy_stm32::interrupt::{self, InterruptExt};
 use embassy_stm32::peripherals::{CAN, FLASH, IWDG, PA11, PA12, PB5};
 use embassy_stm32::rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPreDiv, PllSource, Sysclk};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::wdg::IndependentWatchdog;
-use embassy_stm32::{bind_interrupts, pac, Config, Peri};
+use embassy_stm32::{pac, rcc, Config, Peri};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::waitqueue::AtomicWaker;
-
-bind_interrupts!(
-    /// The bxCAN's error interrupt, bound to Embassy's handler; the transmit and receive
-    /// interrupts are the board's own (`USB_HP_CAN1_TX`, `USB_LP_CAN1_RX0`, `CAN1_RX1`).
-    pub struct CanIrqs {
-        CAN1_SCE => can::SceInterruptHandler<CAN>;
-    }
-);
-
-// SAFETY: `Can::new` asks for handlers that serve the transmit and receive interrupts: the
-// transmit one acknowledges the completed requests (RQCPx, or the interrupt fires again at once)
-// and wakes whoever waits for a mailbox, the receive ones empty their FIFO (FMPx, likewise) and
-// wake whoever waits for a frame. The handlers below do all of it for the firmware, which writes
-// the mailboxes itself and waits on `TX_DONE`, and takes received frames from `RX` and waits on
-// `RX_READY`; it uses none of Embassy's transmit or receive halves, whose wakers and buffers
-// Embassy's handlers would serve (and so link).
-unsafe impl Binding<typelevel::USB_HP_CAN1_TX, can::TxInterruptHandler<CAN>> for CanIrqs {}
-// SAFETY: as above.
-unsafe impl Binding<typelevel::USB_LP_CAN1_RX0, can::Rx0InterruptHandler<CAN>> for CanIrqs {}
-// SAFETY: as above.
-unsafe impl Binding<typelevel::CAN1_RX1, can::Rx1InterruptHandler<CAN>> for CanIrqs {}
 
 /// Woken by the transmit interrupt: a mailbox's request completed (sent or aborted).
 pub static TX_DONE: AtomicWaker = AtomicWaker::new();
@@ -126,10 +104,49 @@ pub fn read_straps(pins: [Peri<'_, AnyPin>; 4]) -> Straps {
     Straps(levels)
 }
 
+/// The bxCAN, in sleep mode until the firmware configures and enables it, through its registers
+/// (`pac::CAN`): the board's own interrupt handlers above serve it, and the firmware polls its
+/// error state, so nothing of Embassy's CAN driver (its handlers, wakers and reference counts) is
+/// linked. The set-up is the driver's `Can::new` without the status-change interrupt, which
+/// only woke the driver's own wakers: PA11 (RX) floating input, PA12 (TX) alternate-function
+/// push-pull 50 MHz (no remap, as after reset), the clock on and the controller reset, the
+/// FIFO and mailbox interrupts enabled, time stamps on, then sleep mode.
+pub struct CanPeri(Peri<'static, CAN>);
+
+impl CanPeri {
+    fn new(can: Peri<'static, CAN>, _rx: Peri<'static, PA11>, _tx: Peri<'static, PA12>) -> CanPeri {
+        // CRH: PA11 CNF 01 MODE 00 (floating input), PA12 CNF 10 MODE 11 (AF push-pull).
+        pac::GPIOA.cr(1).modify(|w| w.0 = (w.0 & !(0xFF << 12)) | (0x4 << 12) | (0xB << 16));
+        rcc::enable_and_reset::<CAN>();
+        let regs = pac::CAN;
+        regs.ier().write(|w| {
+            w.set_fmpie(0, true);
+            w.set_fmpie(1, true);
+            w.set_tmeie(true);
+        });
+        regs.mcr().write(|w| w.set_ttcm(true));
+        for irq in [interrupt::USB_HP_CAN1_TX, interrupt::USB_LP_CAN1_RX0, interrupt::CAN1_RX1] {
+            irq.unpend();
+            // SAFETY: the handlers above serve these interrupts; none runs in a critical section
+            // of the firmware's that it could break.
+            unsafe { irq.enable() };
+        }
+        regs.mcr().modify(|w| {
+            w.set_sleep(true);
+            w.set_inrq(false);
+        });
+        while {
+            let msr = regs.msr().read();
+            !msr.slak() || msr.inak()
+        } {}
+        CanPeri(can)
+    }
+}
+
 /// The peripherals every board has.
 pub struct Mcu {
     /// The bxCAN, in sleep mode until the firmware configures and enables it.
-    pub can: Can<'static>,
+    pub can: CanPeri,
     /// The transceiver's standby pin (high = standby): the firmware drives it low once the
     /// controller runs.
     pub standby: Output<'static>,
@@ -157,7 +174,7 @@ impl Mcu {
         // Standby until the controller is configured: a board never disturbs the bus at reset.
         let standby = Output::new(standby, Level::High, Speed::Low);
         Mcu {
-            can: Can::new(can, rx, tx, CanIrqs),
+            can: CanPeri::new(can, rx, tx),
             standby,
             flash: Flash::new_blocking(flash),
             watchdog: IndependentWatchdog::new(iwdg, WATCHDOG_TIMEOUT_US),
