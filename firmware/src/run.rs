@@ -61,8 +61,7 @@ pub fn boot_j1939<D: J1939Device>(device: D, params: &mut Params, uid: &[u8; 12]
     for e in table.iter().filter(|e| (e.index, e.sub) == (0x1018, 4) || (e.index, e.sub) == (0x650B, 0)) {
         let _ = image.set(Record::of(e, serial_from_uid(uid)));
     }
-    let node = J1939Node::boot(device, &Loaded::Image(image));
-    node
+    J1939Node::boot(device, &Loaded::Image(image))
 }
 
 /// Carries out what the node asks for: frames into the transmit queue, parameter saves (answered
