@@ -10,11 +10,9 @@
 //! often, which is what keeps the watchdog fed: a loop that stops turning resets the MCU.
 
 use board_plan::straps::serial_from_uid;
-use boards::mcu::Mcu;
+use boards::mcu::{Mcu, Watchdog};
 use boards::Io;
 use embassy_futures::select::{select3, Either3};
-use embassy_stm32::peripherals::IWDG;
-use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_time::{Duration, Timer};
 use od_core::encoder::program_serial;
 use od_core::j1939::node::{J1939Device, J1939Node};
@@ -66,12 +64,7 @@ pub fn boot_j1939<D: J1939Device>(device: D, params: &mut Params, uid: &[u8; 12]
 
 /// Carries out what the node asks for: frames into the transmit queue, parameter saves (answered
 /// when the flash is written), bit-rate switches.
-fn serve<N: DeviceStation>(
-    node: &mut N,
-    bus: &mut Bus,
-    params: &mut Params,
-    watchdog: &mut IndependentWatchdog<'static, IWDG>,
-) {
+fn serve<N: DeviceStation>(node: &mut N, bus: &mut Bus, params: &mut Params, watchdog: &mut Watchdog) {
     while let Some(output) = node.next_output() {
         match output {
             Output::Frame(frame) => {

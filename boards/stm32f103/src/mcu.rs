@@ -9,10 +9,10 @@ use core::cell::RefCell;
 use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
 use embassy_stm32::interrupt::{self, InterruptExt};
+use embassy_stm32::pac::iwdg::vals::{Key, Pr};
 use embassy_stm32::peripherals::{CAN, FLASH, IWDG, PA11, PA12, PB5};
 use embassy_stm32::rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPreDiv, PllSource, Sysclk};
 use embassy_stm32::time::Hertz;
-use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_stm32::{pac, rcc, Config, Peri};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
@@ -143,6 +143,32 @@ impl CanPeri {
     }
 }
 
+/// The independent watchdog, through its registers: the prescaler and reload value for
+/// [`WATCHDOG_TIMEOUT_US`] are constants (`board_plan::watchdog`), where Embassy's
+/// `IndependentWatchdog::new` computed them at run time; the register writes are its.
+pub struct Watchdog(Peri<'static, IWDG>);
+
+impl Watchdog {
+    fn new(iwdg: Peri<'static, IWDG>) -> Watchdog {
+        const REGISTERS: (u8, u16) = board_plan::watchdog::registers(WATCHDOG_TIMEOUT_US);
+        let regs = pac::IWDG;
+        regs.kr().write(|w| w.set_key(Key::ENABLE));
+        regs.pr().write(|w| w.set_pr(Pr::from_bits(REGISTERS.0)));
+        regs.rlr().write(|w| w.set_rl(REGISTERS.1));
+        Watchdog(iwdg)
+    }
+
+    /// Starts the watchdog: from now on the MCU resets unless [`Watchdog::pet`] comes in time.
+    pub fn unleash(&mut self) {
+        pac::IWDG.kr().write(|w| w.set_key(Key::START));
+    }
+
+    /// Restarts the watchdog's count.
+    pub fn pet(&mut self) {
+        pac::IWDG.kr().write(|w| w.set_key(Key::RESET));
+    }
+}
+
 /// The peripherals every board has.
 pub struct Mcu {
     /// The bxCAN, in sleep mode until the firmware configures and enables it.
@@ -153,7 +179,7 @@ pub struct Mcu {
     /// The flash; the parameter pages are the region `memory.x` reserves.
     pub flash: Flash<'static, Blocking>,
     /// The independent watchdog, not yet started.
-    pub watchdog: IndependentWatchdog<'static, IWDG>,
+    pub watchdog: Watchdog,
     /// Why the MCU reset.
     pub reset: ResetCause,
     /// The MCU's 96-bit unique device ID.
@@ -177,7 +203,7 @@ impl Mcu {
             can: CanPeri::new(can, rx, tx),
             standby,
             flash: Flash::new_blocking(flash),
-            watchdog: IndependentWatchdog::new(iwdg, WATCHDOG_TIMEOUT_US),
+            watchdog: Watchdog::new(iwdg),
             reset,
             uid: embassy_stm32::uid::uid(),
         }
