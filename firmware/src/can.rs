@@ -16,7 +16,6 @@ use boards::mcu::CanPeri;
 use boards::mcu::{RX, RX_READY, TX_DONE};
 use core::future::poll_fn;
 use core::task::Poll;
-use embassy_futures::select::{select, Either};
 use embassy_stm32::pac;
 use embassy_time::{Duration, Instant};
 use od_core::node::BusEvent;
@@ -233,15 +232,28 @@ impl Bus {
         self.errors.each(esr, event);
     }
 
-    /// Waits until a frame is received or a mailbox can take the next waiting frame.
+    /// Waits until a frame is received or, while frames wait in the queue, a mailbox can take
+    /// the next one. If a mailbox is free already, the frame was refused because one with the
+    /// same identifier is still pending (the bxCAN would not keep their order): then it waits
+    /// for every mailbox to empty, rather than return at once and spin.
     pub async fn ready(&mut self) {
-        if self.queue.is_empty() {
-            received().await;
-            return;
-        }
-        match select(received(), wait_mailboxes()).await {
-            Either::First(()) | Either::Second(()) => {}
-        }
+        let waiting = !self.queue.is_empty();
+        let all = empty_mailboxes() > 0;
+        poll_fn(|cx| {
+            RX_READY.register(cx.waker());
+            if !RX.lock(|rx| rx.borrow().is_empty()) {
+                return Poll::Ready(());
+            }
+            if waiting {
+                TX_DONE.register(cx.waker());
+                let empty = empty_mailboxes();
+                if empty == 3 || (!all && empty > 0) {
+                    return Poll::Ready(());
+                }
+            }
+            Poll::Pending
+        })
+        .await
     }
 }
 
@@ -256,36 +268,6 @@ fn enable() {
             w.set_sleep(false);
         });
     }
-}
-
-/// Waits until a received frame waits in `boards::mcu::RX`.
-async fn received() {
-    poll_fn(|cx| {
-        RX_READY.register(cx.waker());
-        if RX.lock(|rx| rx.borrow().is_empty()) {
-            Poll::Pending
-        } else {
-            Poll::Ready(())
-        }
-    })
-    .await
-}
-
-/// Waits until a mailbox can take the next frame. If one is free already, the frame was refused
-/// because one with the same identifier is still pending (the bxCAN would not keep their
-/// order): then wait for every mailbox to empty, rather than return at once and spin.
-async fn wait_mailboxes() {
-    let all = empty_mailboxes() > 0;
-    poll_fn(|cx| {
-        TX_DONE.register(cx.waker());
-        let empty = empty_mailboxes();
-        if empty == 3 || (!all && empty > 0) {
-            Poll::Ready(())
-        } else {
-            Poll::Pending
-        }
-    })
-    .await
 }
 
 /// Aborts the frame in mailbox `i` and returns it; `None` if the mailbox was empty or its frame

@@ -12,7 +12,7 @@
 use board_plan::straps::serial_from_uid;
 use boards::mcu::{Mcu, Watchdog};
 use boards::Io;
-use embassy_futures::select::{select3, Either3};
+use embassy_futures::select::select;
 use embassy_time::{Duration, Timer};
 use od_core::encoder::program_serial;
 use od_core::j1939::node::{J1939Device, J1939Node};
@@ -20,7 +20,7 @@ use od_core::node::{CanopenDevice, Device, Node, Output};
 use od_core::od::{Entry, Group};
 use od_core::storage::{Loaded, Record};
 use od_core::time::earliest;
-use od_core::{DeviceStation, Instant};
+use od_core::DeviceStation;
 
 use crate::can::Bus;
 use crate::params::{self, Params};
@@ -83,14 +83,6 @@ fn serve<N: DeviceStation>(node: &mut N, bus: &mut Bus, params: &mut Params, wat
                 bus.set_bitrate(rate, node.listen_only());
             }
         }
-    }
-}
-
-/// Waits for `deadline` (forever if there is none).
-async fn until(deadline: Option<Instant>) {
-    match deadline {
-        Some(t) => Timer::at(wake_at(embassy_time::Instant::from_micros(t.as_micros()))).await,
-        None => core::future::pending().await,
     }
 }
 
@@ -173,21 +165,23 @@ where
         let (device, core) = node.split();
         let led_change = io.show(device, core, t);
 
-        match select3(bus.ready(), until(earliest(node.next_deadline(), led_change)), Timer::at(wake_at(next_sample)))
-            .await
-        {
-            Either3::Third(()) => {
-                let (device, core) = node.split();
-                io.sample(device, core, now());
-                // On the period grid; a period the loop missed (a flash erase) is skipped, not
-                // made up in a burst of samples at one instant.
-                next_sample += period;
-                let late = embassy_time::Instant::now();
-                if next_sample <= late {
-                    next_sample = late + period;
-                }
+        // One timer for whichever comes first: the node's or the LEDs' next deadline, or the
+        // next sample.
+        let mut wake = next_sample;
+        if let Some(t) = earliest(node.next_deadline(), led_change) {
+            wake = wake.min(embassy_time::Instant::from_micros(t.as_micros()));
+        }
+        let _ = select(bus.ready(), Timer::at(wake_at(wake))).await;
+        if embassy_time::Instant::now() >= next_sample {
+            let (device, core) = node.split();
+            io.sample(device, core, now());
+            // On the period grid; a period the loop missed (a flash erase) is skipped, not
+            // made up in a burst of samples at one instant.
+            next_sample += period;
+            let late = embassy_time::Instant::now();
+            if next_sample <= late {
+                next_sample = late + period;
             }
-            Either3::First(()) | Either3::Second(()) => {}
         }
     }
 }
