@@ -116,7 +116,7 @@ where
     let mut node = make(&mut params, &uid);
     // The transceiver leaves standby only now; the controller, in sleep until `Bus::start`
     // enables it, keeps its TX pin recessive meanwhile.
-    standby.set_low();
+    standby.set(false);
     let mut bus = Bus::start(can, node.context().bitrate);
     // Automatic bit-rate detection: silent from the start (D-AP-20).
     if node.listen_only() {

@@ -16,6 +16,7 @@
 pub mod ap10t;
 pub mod leds;
 pub mod mcu;
+pub mod pin;
 pub mod sensor;
 pub mod sgh10;
 pub mod sgh50;

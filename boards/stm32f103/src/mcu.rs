@@ -7,7 +7,7 @@ use board_plan::rxq::RxRing;
 use board_plan::straps::Straps;
 use core::cell::RefCell;
 use embassy_stm32::flash::{Blocking, Flash};
-use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
+use embassy_stm32::gpio::AnyPin;
 use embassy_stm32::interrupt::{self, InterruptExt};
 use embassy_stm32::pac::iwdg::vals::{Key, Pr};
 use embassy_stm32::peripherals::{CAN, FLASH, IWDG, PA11, PA12, PB5};
@@ -17,6 +17,8 @@ use embassy_stm32::{pac, rcc, Config, Peri};
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::waitqueue::AtomicWaker;
+
+use crate::pin::OutPin;
 
 /// Woken by the transmit interrupt: a mailbox's request completed (sent or aborted).
 pub static TX_DONE: AtomicWaker = AtomicWaker::new();
@@ -93,15 +95,7 @@ pub fn take_reset_cause() -> ResetCause {
 /// Reads the four variant straps (PB12..PB15) once: pull-ups on, 10 µs to settle, read, pins
 /// released (a fitted strap draws no current afterwards).
 pub fn read_straps(pins: [Peri<'_, AnyPin>; 4]) -> Straps {
-    let inputs = pins.map(|p| Input::new(p, Pull::Up));
-    embassy_time::block_for(embassy_time::Duration::from_micros(10));
-    let mut levels = 0u8;
-    for (k, input) in inputs.iter().enumerate() {
-        if input.is_high() {
-            levels |= 1 << k;
-        }
-    }
-    Straps(levels)
+    Straps(crate::pin::read_pulled_up(&pins, embassy_time::Duration::from_micros(10)))
 }
 
 /// The bxCAN, in sleep mode until the firmware configures and enables it, through its registers
@@ -175,7 +169,7 @@ pub struct Mcu {
     pub can: CanPeri,
     /// The transceiver's standby pin (high = standby): the firmware drives it low once the
     /// controller runs.
-    pub standby: Output<'static>,
+    pub standby: OutPin,
     /// The flash; the parameter pages are the region `memory.x` reserves.
     pub flash: Flash<'static, Blocking>,
     /// The independent watchdog, not yet started.
@@ -198,7 +192,7 @@ impl Mcu {
     ) -> Mcu {
         let reset = take_reset_cause();
         // Standby until the controller is configured: a board never disturbs the bus at reset.
-        let standby = Output::new(standby, Level::High, Speed::Low);
+        let standby = OutPin::new(standby.into(), true);
         Mcu {
             can: CanPeri::new(can, rx, tx),
             standby,
