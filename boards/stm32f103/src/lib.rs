@@ -14,6 +14,7 @@
 #![deny(missing_docs)]
 
 pub mod ap10t;
+pub mod flash;
 pub mod leds;
 pub mod mcu;
 pub mod pin;

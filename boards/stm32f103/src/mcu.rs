@@ -6,7 +6,6 @@ use board_plan::reset::ResetCause;
 use board_plan::rxq::RxRing;
 use board_plan::straps::Straps;
 use core::cell::RefCell;
-use embassy_stm32::flash::{Blocking, Flash};
 use embassy_stm32::gpio::AnyPin;
 use embassy_stm32::interrupt::{self, InterruptExt};
 use embassy_stm32::pac::iwdg::vals::{Key, Pr};
@@ -18,6 +17,7 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::waitqueue::AtomicWaker;
 
+use crate::flash::Flash;
 use crate::pin::OutPin;
 
 /// Woken by the transmit interrupt: a mailbox's request completed (sent or aborted).
@@ -171,7 +171,7 @@ pub struct Mcu {
     /// controller runs.
     pub standby: OutPin,
     /// The flash; the parameter pages are the region `memory.x` reserves.
-    pub flash: Flash<'static, Blocking>,
+    pub flash: Flash,
     /// The independent watchdog, not yet started.
     pub watchdog: Watchdog,
     /// Why the MCU reset.
@@ -196,7 +196,7 @@ impl Mcu {
         Mcu {
             can: CanPeri::new(can, rx, tx),
             standby,
-            flash: Flash::new_blocking(flash),
+            flash: Flash::new(flash),
             watchdog: Watchdog::new(iwdg),
             reset,
             uid: embassy_stm32::uid::uid(),
