@@ -118,7 +118,7 @@ impl NorFlash for Flash {
         if offset + bytes.len() as u32 > SIZE {
             return Err(Error::Size);
         }
-        if offset % 4 != 0 || bytes.len() % 4 != 0 {
+        if !offset.is_multiple_of(4) || !bytes.len().is_multiple_of(4) {
             return Err(Error::Unaligned);
         }
         let flash = pac::FLASH;
@@ -146,7 +146,7 @@ impl NorFlash for Flash {
         if to > SIZE || from > to {
             return Err(Error::Size);
         }
-        if from % PAGE != 0 || to % PAGE != 0 {
+        if !from.is_multiple_of(PAGE) || !to.is_multiple_of(PAGE) {
             return Err(Error::Unaligned);
         }
         let flash = pac::FLASH;
