@@ -208,7 +208,7 @@ impl Bus {
 
     /// The next received frame, if any.
     pub fn receive(&mut self) -> Option<Frame> {
-        RX.lock(|rx| rx.borrow_mut().pop())
+        RX.with(|rx| rx.pop())
     }
 
     /// What changed in the controller since the last look, handed to `event` in this order: a
@@ -221,7 +221,7 @@ impl Bus {
         if fifo {
             can.rfr(0).write(|w| w.set_fovr(true));
         }
-        if RX.lock(|rx| rx.borrow_mut().take_overflow()) | fifo {
+        if RX.with(|rx| rx.take_overflow()) | fifo {
             event(BusEvent::RxOverrun);
         }
         let esr = Esr::from_bits(can.esr().read().0);
@@ -241,7 +241,7 @@ impl Bus {
         let all = empty_mailboxes() > 0;
         poll_fn(|cx| {
             RX_READY.register(cx.waker());
-            if !RX.lock(|rx| rx.borrow().is_empty()) {
+            if !RX.with(|rx| rx.is_empty()) {
                 return Poll::Ready(());
             }
             if waiting {

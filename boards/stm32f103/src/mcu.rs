@@ -5,7 +5,7 @@ use board_plan::mailbox;
 use board_plan::reset::ResetCause;
 use board_plan::rxq::RxRing;
 use board_plan::straps::Straps;
-use core::cell::RefCell;
+use core::cell::UnsafeCell;
 use embassy_stm32::gpio::AnyPin;
 use embassy_stm32::interrupt::{self, InterruptExt};
 use embassy_stm32::pac::iwdg::vals::{Key, Pr};
@@ -13,8 +13,6 @@ use embassy_stm32::peripherals::{CAN, FLASH, IWDG, PA11, PA12, PB5};
 use embassy_stm32::rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPreDiv, PllSource, Sysclk};
 use embassy_stm32::time::Hertz;
 use embassy_stm32::{pac, rcc, Config, Peri};
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::waitqueue::AtomicWaker;
 
 use crate::flash::Flash;
@@ -23,8 +21,25 @@ use crate::pin::OutPin;
 /// Woken by the transmit interrupt: a mailbox's request completed (sent or aborted).
 pub static TX_DONE: AtomicWaker = AtomicWaker::new();
 
-/// The frames received and not yet taken, filled by the receive interrupts.
-pub static RX: Mutex<CriticalSectionRawMutex, RefCell<RxRing>> = Mutex::new(RefCell::new(RxRing::new()));
+/// The frames received and not yet taken, filled by the receive interrupts: reached only through
+/// [`Rx::with`].
+pub static RX: Rx = Rx(UnsafeCell::new(RxRing::new()));
+
+/// The receive ring, shared by the receive interrupts and the main loop.
+pub struct Rx(UnsafeCell<RxRing>);
+
+// SAFETY: the ring is only reached through `Rx::with`, inside a critical section.
+unsafe impl Sync for Rx {}
+
+impl Rx {
+    /// Runs `f` on the ring with interrupts off.
+    pub fn with<R>(&self, f: impl FnOnce(&mut RxRing) -> R) -> R {
+        // SAFETY: single core, interrupts off for the whole call, and `f` cannot reach `RX` again
+        // (it gets the ring, not the static; the ring's methods do not call back), so the
+        // reference is the only one while it lives (what a RefCell's borrow flag would check).
+        critical_section::with(|_| f(unsafe { &mut *self.0.get() }))
+    }
+}
 
 /// Woken by the receive interrupts: frames arrived in [`RX`].
 pub static RX_READY: AtomicWaker = AtomicWaker::new();
@@ -61,7 +76,7 @@ fn receive(fifo: usize) {
         let mb = can.rx(fifo);
         let frame = mailbox::frame_of([mb.rir().read().0, mb.rdtr().read().0, mb.rdlr().read().0, mb.rdhr().read().0]);
         can.rfr(fifo).write(|w| w.set_rfom(true));
-        RX.lock(|rx| rx.borrow_mut().push(frame));
+        RX.with(|rx| rx.push(frame));
     }
     RX_READY.wake();
 }
