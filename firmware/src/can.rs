@@ -12,13 +12,12 @@ use board_plan::filters::{each_bank, mask32, Bank, BANKS};
 use board_plan::mailbox::{self, Slot};
 use board_plan::timing;
 use board_plan::txq::TxQueue;
+use boards::mcu::CanPeri;
 use boards::mcu::{RX, RX_READY, TX_DONE};
 use core::future::poll_fn;
 use core::task::Poll;
-use embassy_futures::select::{select, Either};
-use embassy_stm32::can::Can;
 use embassy_stm32::pac;
-use embassy_time::{with_deadline, Duration, Instant};
+use embassy_time::{Duration, Instant};
 use od_core::node::BusEvent;
 use od_core::{Bitrate, Frame};
 
@@ -35,19 +34,34 @@ pub const FLUSH_TIMEOUT: Duration = Duration::from_millis(100);
 
 /// The node's CAN bus.
 pub struct Bus {
-    can: Can<'static>,
+    _can: CanPeri,
     queue: TxQueue,
     errors: ErrorTracker,
 }
 
 /// Sets the bit timing for `rate` (`board_plan::timing`, computed at compile time), in silent
-/// mode or not: CAN_BTR written whole (loop-back off) while the controller is in
-/// initialisation mode, which `modify_config` enters and, when dropped, leaves.
-fn set_timing(can: &mut Can<'static>, rate: Bitrate, silent: bool) {
-    let init = can.modify_config();
+/// mode or not: CAN_BTR written whole (loop-back off) in initialisation mode, then back to
+/// sleep mode, where [`enable`] takes it from (the steps of Embassy's `modify_config`).
+fn set_timing(rate: Bitrate, silent: bool) {
+    let can = pac::CAN;
+    can.mcr().modify(|w| {
+        w.set_sleep(false);
+        w.set_inrq(true);
+    });
+    while {
+        let msr = can.msr().read();
+        msr.slak() || !msr.inak()
+    } {}
     let silm = if silent { 1 << 31 } else { 0 };
-    pac::CAN.btr().write(|w| w.0 = timing::of(rate).btr() | silm);
-    drop(init);
+    can.btr().write(|w| w.0 = timing::of(rate).btr() | silm);
+    can.mcr().modify(|w| {
+        w.set_sleep(true);
+        w.set_inrq(false);
+    });
+    while {
+        let msr = can.msr().read();
+        !msr.slak() || msr.inak()
+    } {}
 }
 
 /// The acceptance filters, written whole rather than through the driver's per-bank calls
@@ -104,11 +118,11 @@ impl Bus {
     /// Configures the controller for `rate` and joins the bus (after 11 recessive bits); the
     /// board's receive interrupts fill `boards::mcu::RX`. No filter bank is enabled until
     /// [`Bus::set_filters`]: the controller receives nothing before the node says what it wants.
-    pub async fn start(mut can: Can<'static>, rate: Bitrate) -> Bus {
+    pub fn start(can: CanPeri, rate: Bitrate) -> Bus {
         FilterWriter::begin().end();
-        set_timing(&mut can, rate, false);
-        can.enable().await;
-        Bus { can, queue: TxQueue::default(), errors: ErrorTracker::default() }
+        set_timing(rate, false);
+        enable();
+        Bus { _can: can, queue: TxQueue::default(), errors: ErrorTracker::default() }
     }
 
     /// Switches to `rate` (LSS activate bit timing, a pending rate after a reset, a candidate of
@@ -116,25 +130,24 @@ impl Bus {
     /// the old rate: they go out first, as long as the bus takes them within [`FLUSH_TIMEOUT`];
     /// what is left then is dropped. The controller re-joins the bus at the new rate after 11
     /// recessive bits; `silent`: in silent mode (it sends nothing, not even an ACK or an error
-    /// frame, while the node detects the rate, `Node::listen_only`).
-    pub async fn set_bitrate(&mut self, rate: Bitrate, silent: bool) {
-        let _ = with_deadline(crate::wake_at(Instant::now() + FLUSH_TIMEOUT), async {
-            loop {
-                self.pump();
-                let empty = self.queue.is_empty();
-                wait_mailboxes().await;
-                if empty && empty_mailboxes() == 3 {
-                    break;
-                }
+    /// frame, while the node detects the rate, `Node::listen_only`). It returns when the
+    /// controller is back on the bus: the firmware's one task has nothing else to run meanwhile
+    /// (the interrupts still fill the receive ring), so it polls the mailboxes and the clock
+    /// rather than sleeping on them, which keeps the loop's future free of await points for it.
+    pub fn set_bitrate(&mut self, rate: Bitrate, silent: bool) {
+        let deadline = Instant::now() + FLUSH_TIMEOUT;
+        loop {
+            self.pump();
+            if (self.queue.is_empty() && empty_mailboxes() == 3) || Instant::now() >= deadline {
+                break;
             }
-        })
-        .await;
+        }
         for i in 0..3 {
             abort(i);
         }
         self.queue.clear();
-        set_timing(&mut self.can, rate, silent);
-        self.can.enable().await;
+        set_timing(rate, silent);
+        enable();
     }
 
     /// Opens the acceptance filters to every frame (while the node detects the rate: any frame
@@ -195,7 +208,7 @@ impl Bus {
 
     /// The next received frame, if any.
     pub fn receive(&mut self) -> Option<Frame> {
-        RX.lock(|rx| rx.borrow_mut().pop())
+        RX.with(|rx| rx.pop())
     }
 
     /// What changed in the controller since the last look, handed to `event` in this order: a
@@ -208,7 +221,7 @@ impl Bus {
         if fifo {
             can.rfr(0).write(|w| w.set_fovr(true));
         }
-        if RX.lock(|rx| rx.borrow_mut().take_overflow()) | fifo {
+        if RX.with(|rx| rx.take_overflow()) | fifo {
             event(BusEvent::RxOverrun);
         }
         let esr = Esr::from_bits(can.esr().read().0);
@@ -219,46 +232,42 @@ impl Bus {
         self.errors.each(esr, event);
     }
 
-    /// Waits until a frame is received or a mailbox can take the next waiting frame.
+    /// Waits until a frame is received or, while frames wait in the queue, a mailbox can take
+    /// the next one. If a mailbox is free already, the frame was refused because one with the
+    /// same identifier is still pending (the bxCAN would not keep their order): then it waits
+    /// for every mailbox to empty, rather than return at once and spin.
     pub async fn ready(&mut self) {
-        if self.queue.is_empty() {
-            received().await;
-            return;
-        }
-        match select(received(), wait_mailboxes()).await {
-            Either::First(()) | Either::Second(()) => {}
-        }
+        let waiting = !self.queue.is_empty();
+        let all = empty_mailboxes() > 0;
+        poll_fn(|cx| {
+            RX_READY.register(cx.waker());
+            if !RX.with(|rx| rx.is_empty()) {
+                return Poll::Ready(());
+            }
+            if waiting {
+                TX_DONE.register(cx.waker());
+                let empty = empty_mailboxes();
+                if empty == 3 || (!all && empty > 0) {
+                    return Poll::Ready(());
+                }
+            }
+            Poll::Pending
+        })
+        .await
     }
 }
 
-/// Waits until a received frame waits in `boards::mcu::RX`.
-async fn received() {
-    poll_fn(|cx| {
-        RX_READY.register(cx.waker());
-        if RX.lock(|rx| rx.borrow().is_empty()) {
-            Poll::Pending
-        } else {
-            Poll::Ready(())
-        }
-    })
-    .await
-}
-
-/// Waits until a mailbox can take the next frame. If one is free already, the frame was refused
-/// because one with the same identifier is still pending (the bxCAN would not keep their
-/// order): then wait for every mailbox to empty, rather than return at once and spin.
-async fn wait_mailboxes() {
-    let all = empty_mailboxes() > 0;
-    poll_fn(|cx| {
-        TX_DONE.register(cx.waker());
-        let empty = empty_mailboxes();
-        if empty == 3 || (!all && empty > 0) {
-            Poll::Ready(())
-        } else {
-            Poll::Pending
-        }
-    })
-    .await
+/// Leaves sleep mode with automatic bus-off management on, and waits until the controller has
+/// joined the bus (11 recessive bits): what Embassy's `Can::enable` does, without yielding to an
+/// executor that has nothing else to run.
+fn enable() {
+    let can = pac::CAN;
+    while can.msr().read().slak() {
+        can.mcr().modify(|w| {
+            w.set_abom(true);
+            w.set_sleep(false);
+        });
+    }
 }
 
 /// Aborts the frame in mailbox `i` and returns it; `None` if the mailbox was empty or its frame

@@ -1,16 +1,16 @@
 //! The parameter pages: the region `memory.x` reserves at the end of the flash, holding the
 //! core's power-fail-safe parameter images (`od_core::storage::ParamFlash`), written through
-//! embassy-stm32's blocking flash driver. A save blocks the loop for its writes (and, when the
+//! the board's flash driver (`boards::flash`). A save blocks the loop for its writes (and, when the
 //! newest page is full, the erase of the next one: the F103 cannot read its flash while
 //! erasing it), and the node answers the store once it is done.
 
-use embassy_stm32::flash::{Blocking, Flash};
+use boards::flash::Flash;
 use embedded_storage::nor_flash::NorFlash;
 use od_core::od::Entry;
 use od_core::storage::{identity, ParamFlash, Region};
 
 /// The parameter pages of a board.
-pub type Params = ParamFlash<Flash<'static, Blocking>>;
+pub type Params = ParamFlash<Flash>;
 
 extern "C" {
     /// Offset of the parameter pages from the start of flash (`memory.x`).
@@ -23,10 +23,10 @@ extern "C" {
 pub fn region() -> Region {
     let offset = core::ptr::addr_of!(__params_offset) as u32;
     let size = core::ptr::addr_of!(__params_size) as u32;
-    Region { offset, pages: size / Flash::<'static, Blocking>::ERASE_SIZE as u32 }
+    Region { offset, pages: size / Flash::ERASE_SIZE as u32 }
 }
 
 /// The parameter pages of the device whose dictionary is `table`.
-pub fn open(flash: Flash<'static, Blocking>, table: &'static [Entry]) -> Params {
+pub fn open(flash: Flash, table: &'static [Entry]) -> Params {
     ParamFlash::new(flash, region(), identity(table))
 }

@@ -10,11 +10,9 @@
 //! often, which is what keeps the watchdog fed: a loop that stops turning resets the MCU.
 
 use board_plan::straps::serial_from_uid;
-use boards::mcu::Mcu;
+use boards::mcu::{Mcu, Watchdog};
 use boards::Io;
-use embassy_futures::select::{select3, Either3};
-use embassy_stm32::peripherals::IWDG;
-use embassy_stm32::wdg::IndependentWatchdog;
+use embassy_futures::select::select;
 use embassy_time::{Duration, Timer};
 use od_core::encoder::program_serial;
 use od_core::j1939::node::{J1939Device, J1939Node};
@@ -22,7 +20,7 @@ use od_core::node::{CanopenDevice, Device, Node, Output};
 use od_core::od::{Entry, Group};
 use od_core::storage::{Loaded, Record};
 use od_core::time::earliest;
-use od_core::{DeviceStation, Instant};
+use od_core::DeviceStation;
 
 use crate::can::Bus;
 use crate::params::{self, Params};
@@ -43,12 +41,6 @@ pub fn boot<D: CanopenDevice>(device: D, params: &mut Params, uid: &[u8; 12]) ->
         let (_, core) = node.split();
         program_serial(&mut core.od, serial_from_uid(uid));
     }
-    defmt::info!(
-        "boot: node-ID {=u8}, {=u32} kbit/s, parameters {=str}",
-        node.context().node_id,
-        node.context().bitrate.kbit(),
-        if loaded.image().is_some() { "stored" } else { "defaults" }
-    );
     node
 }
 
@@ -67,19 +59,12 @@ pub fn boot_j1939<D: J1939Device>(device: D, params: &mut Params, uid: &[u8; 12]
     for e in table.iter().filter(|e| (e.index, e.sub) == (0x1018, 4) || (e.index, e.sub) == (0x650B, 0)) {
         let _ = image.set(Record::of(e, serial_from_uid(uid)));
     }
-    let node = J1939Node::boot(device, &Loaded::Image(image));
-    defmt::info!("boot: J1939 address {=u8}, {=u32} kbit/s", node.context().node_id, node.context().bitrate.kbit());
-    node
+    J1939Node::boot(device, &Loaded::Image(image))
 }
 
 /// Carries out what the node asks for: frames into the transmit queue, parameter saves (answered
 /// when the flash is written), bit-rate switches.
-async fn serve<N: DeviceStation>(
-    node: &mut N,
-    bus: &mut Bus,
-    params: &mut Params,
-    watchdog: &mut IndependentWatchdog<'static, IWDG>,
-) {
+fn serve<N: DeviceStation>(node: &mut N, bus: &mut Bus, params: &mut Params, watchdog: &mut Watchdog) {
     while let Some(output) = node.next_output() {
         match output {
             Output::Frame(frame) => {
@@ -95,18 +80,9 @@ async fn serve<N: DeviceStation>(
                 node.store_done(result.map_err(|_| ()), now());
             }
             Output::SetBitrate(rate) => {
-                defmt::info!("bit rate {=u32} kbit/s", rate.kbit());
-                bus.set_bitrate(rate, node.listen_only()).await;
+                bus.set_bitrate(rate, node.listen_only());
             }
         }
-    }
-}
-
-/// Waits for `deadline` (forever if there is none).
-async fn until(deadline: Option<Instant>) {
-    match deadline {
-        Some(t) => Timer::at(wake_at(embassy_time::Instant::from_micros(t.as_micros()))).await,
-        None => core::future::pending().await,
     }
 }
 
@@ -140,11 +116,11 @@ where
     let mut node = make(&mut params, &uid);
     // The transceiver leaves standby only now; the controller, in sleep until `Bus::start`
     // enables it, keeps its TX pin recessive meanwhile.
-    standby.set_low();
-    let mut bus = Bus::start(can, node.context().bitrate).await;
+    standby.set(false);
+    let mut bus = Bus::start(can, node.context().bitrate);
     // Automatic bit-rate detection: silent from the start (D-AP-20).
     if node.listen_only() {
-        bus.set_bitrate(node.context().bitrate, true).await;
+        bus.set_bitrate(node.context().bitrate, true);
     }
     watchdog.unleash();
 
@@ -160,13 +136,13 @@ where
         // than one call's worth (`od_core::output::WORST_CALL_FRAMES`) and drops nothing.
         while let Some(frame) = bus.receive() {
             node.on_frame(&frame, t);
-            serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
+            serve(&mut node, &mut bus, &mut params, &mut watchdog);
         }
         bus.events(|event| node.on_bus_event(event, t));
-        serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
+        serve(&mut node, &mut bus, &mut params, &mut watchdog);
         if node.next_deadline().is_some_and(|d| d <= t) {
             node.poll(t);
-            serve(&mut node, &mut bus, &mut params, &mut watchdog).await;
+            serve(&mut node, &mut bus, &mut params, &mut watchdog);
         }
         if node.context().out.dropped() != lost_outputs {
             lost_outputs = node.context().out.dropped();
@@ -189,21 +165,23 @@ where
         let (device, core) = node.split();
         let led_change = io.show(device, core, t);
 
-        match select3(bus.ready(), until(earliest(node.next_deadline(), led_change)), Timer::at(wake_at(next_sample)))
-            .await
-        {
-            Either3::Third(()) => {
-                let (device, core) = node.split();
-                io.sample(device, core, now());
-                // On the period grid; a period the loop missed (a flash erase) is skipped, not
-                // made up in a burst of samples at one instant.
-                next_sample += period;
-                let late = embassy_time::Instant::now();
-                if next_sample <= late {
-                    next_sample = late + period;
-                }
+        // One timer for whichever comes first: the node's or the LEDs' next deadline, or the
+        // next sample.
+        let mut wake = next_sample;
+        if let Some(t) = earliest(node.next_deadline(), led_change) {
+            wake = wake.min(embassy_time::Instant::from_micros(t.as_micros()));
+        }
+        let _ = select(bus.ready(), Timer::at(wake_at(wake))).await;
+        if embassy_time::Instant::now() >= next_sample {
+            let (device, core) = node.split();
+            io.sample(device, core, now());
+            // On the period grid; a period the loop missed (a flash erase) is skipped, not
+            // made up in a burst of samples at one instant.
+            next_sample += period;
+            let late = embassy_time::Instant::now();
+            if next_sample <= late {
+                next_sample = late + period;
             }
-            Either3::First(()) | Either3::Second(()) => {}
         }
     }
 }

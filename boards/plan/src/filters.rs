@@ -125,37 +125,27 @@ pub fn each_bank(ids: &[RxId], max_banks: usize, mut bank: impl FnMut(Bank)) {
     // Four 11-bit identifiers to a bank, then two 29-bit ones; a bank's unused places repeat
     // its first identifier. (Built in place rather than through collected lists, whose moves
     // link a `memmove` into the image.)
-    let mut list16 = [RxId::data(CanId::Std(0)); 4];
-    let mut n = 0;
-    for r in ids.iter().filter(is_std) {
-        if n == 0 {
-            list16 = [*r; 4];
+    // The standard identifiers four to a 16-bit list bank, then the extended ones two to a
+    // 32-bit one; a bank's unused entries repeat its first identifier.
+    for std in [true, false] {
+        let width = if std { 4 } else { 2 };
+        let mut list = [RxId::data(CanId::Std(0)); 4];
+        let mut n = 0;
+        let mut emit = |list: [RxId; 4]| bank(if std { Bank::List16(list) } else { Bank::List32([list[0], list[1]]) });
+        for r in ids.iter().filter(|r| is_std(r) == std) {
+            if n == 0 {
+                list = [*r; 4];
+            }
+            list[n] = *r;
+            n += 1;
+            if n == width {
+                emit(list);
+                n = 0;
+            }
         }
-        list16[n] = *r;
-        n += 1;
-        if n == 4 {
-            bank(Bank::List16(list16));
-            n = 0;
+        if n > 0 {
+            emit(list);
         }
-    }
-    if n > 0 {
-        bank(Bank::List16(list16));
-    }
-    let mut list32 = [RxId::data(CanId::Ext(0)); 2];
-    let mut n = 0;
-    for r in ids.iter().filter(|r| !is_std(r)) {
-        if n == 0 {
-            list32 = [*r; 2];
-        }
-        list32[n] = *r;
-        n += 1;
-        if n == 2 {
-            bank(Bank::List32(list32));
-            n = 0;
-        }
-    }
-    if n > 0 {
-        bank(Bank::List32(list32));
     }
 }
 

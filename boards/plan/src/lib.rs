@@ -12,7 +12,8 @@
 //! - [`reset`]: why the MCU reset, from the RCC's reset flags;
 //! - [`txq`]: the transmit queue that hands frames to the mailboxes in priority order;
 //! - [`mailbox`]: a frame in the transmit mailboxes' registers, and which mailbox takes it;
-//! - [`rxq`]: the ring the receive interrupt fills and the main loop empties.
+//! - [`rxq`]: the ring the receive interrupt fills and the main loop empties;
+//! - [`watchdog`]: the independent watchdog's register values for its timeout.
 //!
 //! The hardware side (Embassy, registers, pins) is in the `boards` crate and in `firmware/`,
 //! which are built for `thumbv7m-none-eabi` only.
@@ -31,3 +32,4 @@ pub mod sensor;
 pub mod straps;
 pub mod timing;
 pub mod txq;
+pub mod watchdog;

@@ -37,6 +37,13 @@ pub const fn id_of(tir: u32) -> (CanId, bool) {
     (id, tir & RTR != 0)
 }
 
+/// The arbitration priority ([`priority`]) of the frame an identifier register holds, from the
+/// register's bits: STID (or EXID 28..18) at 31..21, EXID 17..0 at 20..3 (zero for an 11-bit
+/// identifier), IDE at 2, RTR at 1.
+pub const fn tir_priority(tir: u32) -> u32 {
+    ((tir >> 21) << 20) | (((tir & IDE) >> 2) << 19) | (((tir >> 3) & 0x3_FFFF) << 1) | ((tir & RTR) >> 1)
+}
+
 /// The frame a mailbox holds (one taken back out of it).
 pub fn frame_of([tir, tdtr, tdlr, tdhr]: [u32; 4]) -> Frame {
     let (id, rtr) = id_of(tir);
@@ -71,8 +78,7 @@ pub fn choose(frame: &Frame, mailboxes: [Option<u32>; 3]) -> Slot {
             // The same identifier is pending: after it, never beside it.
             Some(tir) if tir & !TXRQ == own => return Slot::Wait,
             Some(tir) => {
-                let (id, rtr) = id_of(tir);
-                let key = priority(id, rtr);
+                let key = tir_priority(tir);
                 if least.is_none_or(|(_, k)| key > k) {
                     least = Some((i, key));
                 }
@@ -93,6 +99,28 @@ mod tests {
 
     fn tir(frame: &Frame) -> Option<u32> {
         Some(registers(frame)[0] | TXRQ)
+    }
+
+    #[test]
+    fn tir_priority_is_the_frames_priority() {
+        let ids = [
+            CanId::Std(0),
+            CanId::Std(0x080),
+            CanId::Std(0x601),
+            CanId::Std(0x7FF),
+            CanId::Ext(0),
+            CanId::Ext(0x18EE_FF80),
+            CanId::Ext(0x1FFF_FFFF),
+            CanId::Ext(0x0004_0000),
+            CanId::Ext(0x0003_FFFF),
+        ];
+        for id in ids {
+            for rtr in [false, true] {
+                let tir = entry32(RxId { id, rtr });
+                assert_eq!(tir_priority(tir), priority(id, rtr), "{id:?} {rtr}");
+                assert_eq!(tir_priority(tir | TXRQ), priority(id, rtr));
+            }
+        }
     }
 
     #[test]

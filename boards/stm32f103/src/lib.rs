@@ -14,8 +14,10 @@
 #![deny(missing_docs)]
 
 pub mod ap10t;
+pub mod flash;
 pub mod leds;
 pub mod mcu;
+pub mod pin;
 pub mod sensor;
 pub mod sgh10;
 pub mod sgh50;

@@ -5,46 +5,41 @@ use board_plan::mailbox;
 use board_plan::reset::ResetCause;
 use board_plan::rxq::RxRing;
 use board_plan::straps::Straps;
-use core::cell::RefCell;
-use embassy_stm32::can::{self, Can};
-use embassy_stm32::flash::{Blocking, Flash};
-use embassy_stm32::gpio::{AnyPin, Input, Level, Output, Pull, Speed};
-use embassy_stm32::interrupt::typelevel::{self, Binding};
+use core::cell::UnsafeCell;
+use embassy_stm32::gpio::AnyPin;
+use embassy_stm32::interrupt::{self, InterruptExt};
+use embassy_stm32::pac::iwdg::vals::{Key, Pr};
 use embassy_stm32::peripherals::{CAN, FLASH, IWDG, PA11, PA12, PB5};
 use embassy_stm32::rcc::{AHBPrescaler, APBPrescaler, Hse, HseMode, Pll, PllMul, PllPreDiv, PllSource, Sysclk};
 use embassy_stm32::time::Hertz;
-use embassy_stm32::wdg::IndependentWatchdog;
-use embassy_stm32::{bind_interrupts, pac, Config, Peri};
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::blocking_mutex::Mutex;
+use embassy_stm32::{pac, rcc, Config, Peri};
 use embassy_sync::waitqueue::AtomicWaker;
 
-bind_interrupts!(
-    /// The bxCAN's error interrupt, bound to Embassy's handler; the transmit and receive
-    /// interrupts are the board's own (`USB_HP_CAN1_TX`, `USB_LP_CAN1_RX0`, `CAN1_RX1`).
-    pub struct CanIrqs {
-        CAN1_SCE => can::SceInterruptHandler<CAN>;
-    }
-);
-
-// SAFETY: `Can::new` asks for handlers that serve the transmit and receive interrupts: the
-// transmit one acknowledges the completed requests (RQCPx, or the interrupt fires again at once)
-// and wakes whoever waits for a mailbox, the receive ones empty their FIFO (FMPx, likewise) and
-// wake whoever waits for a frame. The handlers below do all of it for the firmware, which writes
-// the mailboxes itself and waits on `TX_DONE`, and takes received frames from `RX` and waits on
-// `RX_READY`; it uses none of Embassy's transmit or receive halves, whose wakers and buffers
-// Embassy's handlers would serve (and so link).
-unsafe impl Binding<typelevel::USB_HP_CAN1_TX, can::TxInterruptHandler<CAN>> for CanIrqs {}
-// SAFETY: as above.
-unsafe impl Binding<typelevel::USB_LP_CAN1_RX0, can::Rx0InterruptHandler<CAN>> for CanIrqs {}
-// SAFETY: as above.
-unsafe impl Binding<typelevel::CAN1_RX1, can::Rx1InterruptHandler<CAN>> for CanIrqs {}
+use crate::flash::Flash;
+use crate::pin::OutPin;
 
 /// Woken by the transmit interrupt: a mailbox's request completed (sent or aborted).
 pub static TX_DONE: AtomicWaker = AtomicWaker::new();
 
-/// The frames received and not yet taken, filled by the receive interrupts.
-pub static RX: Mutex<CriticalSectionRawMutex, RefCell<RxRing>> = Mutex::new(RefCell::new(RxRing::new()));
+/// The frames received and not yet taken, filled by the receive interrupts: reached only through
+/// [`Rx::with`].
+pub static RX: Rx = Rx(UnsafeCell::new(RxRing::new()));
+
+/// The receive ring, shared by the receive interrupts and the main loop.
+pub struct Rx(UnsafeCell<RxRing>);
+
+// SAFETY: the ring is only reached through `Rx::with`, inside a critical section.
+unsafe impl Sync for Rx {}
+
+impl Rx {
+    /// Runs `f` on the ring with interrupts off.
+    pub fn with<R>(&self, f: impl FnOnce(&mut RxRing) -> R) -> R {
+        // SAFETY: single core, interrupts off for the whole call, and `f` cannot reach `RX` again
+        // (it gets the ring, not the static; the ring's methods do not call back), so the
+        // reference is the only one while it lives (what a RefCell's borrow flag would check).
+        critical_section::with(|_| f(unsafe { &mut *self.0.get() }))
+    }
+}
 
 /// Woken by the receive interrupts: frames arrived in [`RX`].
 pub static RX_READY: AtomicWaker = AtomicWaker::new();
@@ -81,7 +76,7 @@ fn receive(fifo: usize) {
         let mb = can.rx(fifo);
         let frame = mailbox::frame_of([mb.rir().read().0, mb.rdtr().read().0, mb.rdlr().read().0, mb.rdhr().read().0]);
         can.rfr(fifo).write(|w| w.set_rfom(true));
-        RX.lock(|rx| rx.borrow_mut().push(frame));
+        RX.with(|rx| rx.push(frame));
     }
     RX_READY.wake();
 }
@@ -115,28 +110,85 @@ pub fn take_reset_cause() -> ResetCause {
 /// Reads the four variant straps (PB12..PB15) once: pull-ups on, 10 µs to settle, read, pins
 /// released (a fitted strap draws no current afterwards).
 pub fn read_straps(pins: [Peri<'_, AnyPin>; 4]) -> Straps {
-    let inputs = pins.map(|p| Input::new(p, Pull::Up));
-    embassy_time::block_for(embassy_time::Duration::from_micros(10));
-    let mut levels = 0u8;
-    for (k, input) in inputs.iter().enumerate() {
-        if input.is_high() {
-            levels |= 1 << k;
+    Straps(crate::pin::read_pulled_up(&pins, embassy_time::Duration::from_micros(10)))
+}
+
+/// The bxCAN, in sleep mode until the firmware configures and enables it, through its registers
+/// (`pac::CAN`): the board's own interrupt handlers above serve it, and the firmware polls its
+/// error state, so nothing of Embassy's CAN driver (its handlers, wakers and reference counts) is
+/// linked. The set-up is the driver's `Can::new` without the status-change interrupt, which
+/// only woke the driver's own wakers: PA11 (RX) floating input, PA12 (TX) alternate-function
+/// push-pull 50 MHz (no remap, as after reset), the clock on and the controller reset, the
+/// FIFO and mailbox interrupts enabled, time stamps on, then sleep mode.
+pub struct CanPeri(Peri<'static, CAN>);
+
+impl CanPeri {
+    fn new(can: Peri<'static, CAN>, _rx: Peri<'static, PA11>, _tx: Peri<'static, PA12>) -> CanPeri {
+        // CRH: PA11 CNF 01 MODE 00 (floating input), PA12 CNF 10 MODE 11 (AF push-pull).
+        pac::GPIOA.cr(1).modify(|w| w.0 = (w.0 & !(0xFF << 12)) | (0x4 << 12) | (0xB << 16));
+        rcc::enable_and_reset::<CAN>();
+        let regs = pac::CAN;
+        regs.ier().write(|w| {
+            w.set_fmpie(0, true);
+            w.set_fmpie(1, true);
+            w.set_tmeie(true);
+        });
+        regs.mcr().write(|w| w.set_ttcm(true));
+        for irq in [interrupt::USB_HP_CAN1_TX, interrupt::USB_LP_CAN1_RX0, interrupt::CAN1_RX1] {
+            irq.unpend();
+            // SAFETY: the handlers above serve these interrupts; none runs in a critical section
+            // of the firmware's that it could break.
+            unsafe { irq.enable() };
         }
+        regs.mcr().modify(|w| {
+            w.set_sleep(true);
+            w.set_inrq(false);
+        });
+        while {
+            let msr = regs.msr().read();
+            !msr.slak() || msr.inak()
+        } {}
+        CanPeri(can)
     }
-    Straps(levels)
+}
+
+/// The independent watchdog, through its registers: the prescaler and reload value for
+/// [`WATCHDOG_TIMEOUT_US`] are constants (`board_plan::watchdog`), where Embassy's
+/// `IndependentWatchdog::new` computed them at run time; the register writes are its.
+pub struct Watchdog(Peri<'static, IWDG>);
+
+impl Watchdog {
+    fn new(iwdg: Peri<'static, IWDG>) -> Watchdog {
+        const REGISTERS: (u8, u16) = board_plan::watchdog::registers(WATCHDOG_TIMEOUT_US);
+        let regs = pac::IWDG;
+        regs.kr().write(|w| w.set_key(Key::ENABLE));
+        regs.pr().write(|w| w.set_pr(Pr::from_bits(REGISTERS.0)));
+        regs.rlr().write(|w| w.set_rl(REGISTERS.1));
+        Watchdog(iwdg)
+    }
+
+    /// Starts the watchdog: from now on the MCU resets unless [`Watchdog::pet`] comes in time.
+    pub fn unleash(&mut self) {
+        pac::IWDG.kr().write(|w| w.set_key(Key::START));
+    }
+
+    /// Restarts the watchdog's count.
+    pub fn pet(&mut self) {
+        pac::IWDG.kr().write(|w| w.set_key(Key::RESET));
+    }
 }
 
 /// The peripherals every board has.
 pub struct Mcu {
     /// The bxCAN, in sleep mode until the firmware configures and enables it.
-    pub can: Can<'static>,
+    pub can: CanPeri,
     /// The transceiver's standby pin (high = standby): the firmware drives it low once the
     /// controller runs.
-    pub standby: Output<'static>,
+    pub standby: OutPin,
     /// The flash; the parameter pages are the region `memory.x` reserves.
-    pub flash: Flash<'static, Blocking>,
+    pub flash: Flash,
     /// The independent watchdog, not yet started.
-    pub watchdog: IndependentWatchdog<'static, IWDG>,
+    pub watchdog: Watchdog,
     /// Why the MCU reset.
     pub reset: ResetCause,
     /// The MCU's 96-bit unique device ID.
@@ -155,12 +207,12 @@ impl Mcu {
     ) -> Mcu {
         let reset = take_reset_cause();
         // Standby until the controller is configured: a board never disturbs the bus at reset.
-        let standby = Output::new(standby, Level::High, Speed::Low);
+        let standby = OutPin::new(standby.into(), true);
         Mcu {
-            can: Can::new(can, rx, tx, CanIrqs),
+            can: CanPeri::new(can, rx, tx),
             standby,
-            flash: Flash::new_blocking(flash),
-            watchdog: IndependentWatchdog::new(iwdg, WATCHDOG_TIMEOUT_US),
+            flash: Flash::new(flash),
+            watchdog: Watchdog::new(iwdg),
             reset,
             uid: embassy_stm32::uid::uid(),
         }

@@ -5,13 +5,13 @@
 //! (D-SGH50-5).
 
 use board_plan::straps::Straps;
-use embassy_stm32::gpio::{Level, Output, Speed};
 use embassy_stm32::peripherals::PB0;
 use embassy_stm32::Peri;
 use od_core::devices::sgh50::{self, Sgh50, Variant};
 use od_core::node::Core;
 use od_core::Instant;
 
+use crate::pin::OutPin;
 use crate::sensor::WireSensor;
 use crate::wire::{self, WireBoard};
 use crate::Io;
@@ -22,13 +22,13 @@ pub const DRUM_UM_PER_TURN: u32 = 250_000;
 /// The SGH50's inputs and outputs: the wire sensor and the bus termination switch.
 pub struct Sgh50Io {
     sensor: WireSensor,
-    termination: Output<'static>,
+    termination: OutPin,
 }
 
 impl Sgh50Io {
     /// The sensor, and the termination switch on PB0, off until the node's value is shown.
     pub fn new(sensor: WireSensor, termination: Peri<'static, PB0>) -> Sgh50Io {
-        Sgh50Io { sensor, termination: Output::new(termination, Level::Low, Speed::Low) }
+        Sgh50Io { sensor, termination: OutPin::new(termination.into(), false) }
     }
 }
 
@@ -44,7 +44,7 @@ impl Io<Sgh50> for Sgh50Io {
     /// Switches the termination as 5F09h says, at every turn of the loop: a write takes effect
     /// in the turn that handles it.
     fn show(&mut self, _: &Sgh50, core: &Core, _: Instant) -> Option<Instant> {
-        self.termination.set_level(sgh50::bus_termination(core).into());
+        self.termination.set(sgh50::bus_termination(core));
         None
     }
 }
