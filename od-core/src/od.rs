@@ -468,19 +468,27 @@ impl Entry {
     /// A VISIBLE_STRING's value, its bytes; `None` for a number. What the firmware's paths
     /// read: [`Entry::default`] gives it as a `str`, at the price of a UTF-8 check that the
     /// firmware should not link.
+    #[inline]
     pub const fn string_value(&self) -> Option<&[u8]> {
+        if self.is_string() {
+            Some(self.string_bytes())
+        } else {
+            None
+        }
+    }
+
+    /// A VISIBLE_STRING's bytes, kept in the entry or in [`STRINGS`].
+    #[inline(never)]
+    const fn string_bytes(&self) -> &[u8] {
         if self.flags & POOLED != 0 {
             let (start, len) = (self.data[0] as usize, self.data[1] as usize);
-            return Some(STRINGS.split_at(start).1.split_at(len).0);
-        }
-        if self.flags & STRING == 0 {
-            return None;
+            return STRINGS.split_at(start).1.split_at(len).0;
         }
         let mut n = 0;
         while n < 4 && self.data[n] != 0 {
             n += 1;
         }
-        Some(self.data.split_at(n).0)
+        self.data.split_at(n).0
     }
 
     /// A plain variable at sub-index 0.
