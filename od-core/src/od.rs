@@ -256,9 +256,10 @@ pub static STRINGS: [u8; 29] = *b"SGH10SGH50AP10TWV5800MWH5800M";
 
 /// The 32-bit patterns of every default and limit of a limited entry ([`Entry::range`]) that is
 /// not one of the small numbers an entry keeps itself (-64 to 127): such an entry keeps the
-/// three as one-byte codes ([`code`]) so that a table's entries need not have room for twelve
-/// bytes of them. A value not found here fails the declaration, at compile time for a `static`
-/// table: add it (the last ones are what the tests' own tables declare).
+/// three as one-byte codes (00h-7Fh 0 to 127, C0h-FFh -64 to -1, 80h-BFh the values here at 0
+/// to 63) so that a table's entries need not have room for twelve bytes of them. A value not
+/// found here fails the declaration, at compile time for a `static` table: add it (the last
+/// ones are what the tests' own tables declare).
 pub static VALUES: [u32; 43] = [
     -67_108_864i32 as u32,
     -4_194_304i32 as u32,
