@@ -258,12 +258,11 @@ pub const STRING_MAX: usize = 12;
 pub static STRINGS: [u8; 29] = *b"SGH10SGH50AP10TWV5800MWH5800M";
 
 /// The 32-bit patterns of every default and limit of a limited entry ([`Entry::range`]) that is
-/// not one of the small numbers an entry keeps itself (-64 to 127): such an entry keeps the
-/// three as one-byte codes (00h-7Fh 0 to 127, C0h-FFh -64 to -1, 80h-BFh the values here at 0
-/// to 63) so that a table's entries need not have room for twelve bytes of them. A value not
-/// found here fails the declaration, at compile time for a `static` table: add it (the last
-/// ones are what the tests' own tables declare).
-pub static VALUES: [u32; 43] = [
+/// not one the entry's one-byte codes give themselves (-32 to 127, 2^n, 2^n - 1; see `code`):
+/// a limited entry keeps the three as such codes so that a table's entries need not have room
+/// for twelve bytes of them. A value not found here fails the declaration, at compile time for
+/// a `static` table: add it (at most 32; the last ones are what the tests' own tables declare).
+pub static VALUES: [u32; 29] = [
     -67_108_864i32 as u32,
     -4_194_304i32 as u32,
     -262_144i32 as u32,
@@ -273,34 +272,20 @@ pub static VALUES: [u32; 43] = [
     -20_478i32 as u32,
     -16_384i32 as u32,
     -10_239i32 as u32,
-    128,
     239,
     253,
     254,
-    255,
-    256,
-    4_096,
     10_239,
-    16_383,
-    16_384,
     30_717,
-    32_767,
     65_534,
-    65_535,
     73_839,
     100_000,
     221_517,
-    262_143,
-    262_144,
     999_999,
     1_048_559,
     1_048_560,
-    4_194_303,
-    4_194_304,
     16_776_959,
     16_776_960,
-    67_108_863,
-    67_108_864,
     268_431_359,
     268_431_360,
     // The tests' own tables.
@@ -311,10 +296,17 @@ pub static VALUES: [u32; 43] = [
 ];
 
 /// The one-byte code of `v`, a limited entry's default or limit: 00h-7Fh the numbers 0 to 127,
-/// C0h-FFh -64 to -1, 80h-BFh the [`VALUES`] at 0 to 63.
+/// E0h-FFh -32 to -1, A0h-BFh 2^n, C0h-DFh 2^n - 1 (n the low five bits), 80h-9Fh the
+/// [`VALUES`] at 0 to 31.
 const fn code(v: u32) -> u8 {
-    if v < 0x80 || v >= (-64i32) as u32 {
+    if v < 0x80 || v >= (-32i32) as u32 {
         return v as u8;
+    }
+    if v.is_power_of_two() {
+        return 0xA0 | v.trailing_zeros() as u8;
+    }
+    if v.wrapping_add(1).is_power_of_two() {
+        return 0xC0 | v.trailing_ones() as u8;
     }
     let mut i = 0;
     while i < VALUES.len() {
@@ -329,18 +321,21 @@ const fn code(v: u32) -> u8 {
 /// The value of a [`code`] (0 for a code past the [`VALUES`], which [`code`] never gives).
 #[inline]
 const fn decode(c: u8) -> u32 {
-    if c & 0xC0 == 0x80 {
-        let i = (c & 0x3F) as usize;
-        if i < VALUES.len() {
-            VALUES[i]
-        } else {
-            0
+    let n = c & 0x1F;
+    match c >> 5 {
+        4 => {
+            if (n as usize) < VALUES.len() {
+                VALUES[n as usize]
+            } else {
+                0
+            }
         }
-    } else {
-        c as i8 as i32 as u32
+        5 => 1 << n,
+        6 => (1 << n) - 1,
+        _ => c as i8 as i32 as u32,
     }
 }
-const _: () = assert!(VALUES.len() <= 64);
+const _: () = assert!(VALUES.len() <= 32);
 
 // `Entry::flags`: the kind in the low two bits, then which reading of `Entry::data` applies.
 const KIND: u8 = 0b11;
@@ -1058,12 +1053,18 @@ mod tests {
 
     #[test]
     fn codes_round_trip() {
-        for v in VALUES.iter().copied().chain((-64..=127).map(|v: i32| v as u32)) {
+        for v in VALUES
+            .iter()
+            .copied()
+            .chain((-32..=127).map(|v: i32| v as u32))
+            .chain((0..32).map(|n| 1 << n))
+            .chain((1..32).map(|n| (1 << n) - 1))
+        {
             assert_eq!(decode(code(v)), v, "{v:#X}");
         }
-        let mut seen: heapless::Vec<u32, 64> = heapless::Vec::new();
+        let mut seen: heapless::Vec<u32, 32> = heapless::Vec::new();
         for v in VALUES {
-            assert!(!seen.contains(&v) && (v >= 0x80 && v < (-64i32) as u32), "{v:#X}: twice or small");
+            assert!(!seen.contains(&v) && code(v) & 0xE0 == 0x80, "{v:#X}: twice or coded otherwise");
             seen.push(v).unwrap();
         }
         // The builders keep a default set before or after the limits.
@@ -1163,7 +1164,7 @@ mod tests {
                 let bytes = dtype.size();
                 let cut = |x: u32| if bytes == 4 { x } else { x & ((1 << (8 * bytes)) - 1) };
                 let number = |x: u32| if dtype.is_signed() { x as i32 as i64 } else { x as i64 };
-                let valid = |c: u8| c & 0xC0 != 0x80 || ((c & 0x3F) as usize) < VALUES.len();
+                let valid = |c: u8| c & 0xE0 != 0x80 || ((c & 0x1F) as usize) < VALUES.len();
                 prop_assume!(valid(a) && valid(b));
                 let (a, b) = (number(decode(a)), number(decode(b)));
                 prop_assume!(dtype.to_i64(a as u32) == a && dtype.to_i64(b as u32) == b);
