@@ -8,6 +8,9 @@
 //! Every value fits in 32 bits: the dictionaries of all five devices hold no type wider than
 //! UNSIGNED32/INTEGER32, and their strings (1008h, 1009h, 100Ah) are constants read from the
 //! declaration itself.
+//!
+//! An entry takes 14 bytes of flash: the few limits and the longer strings are codes into two
+//! crate-wide lists, [`VALUES`] and [`STRINGS`] (D-ARCH-9).
 
 use crate::abort::Abort;
 use crate::lookup::Lookup;
@@ -60,6 +63,14 @@ impl DataType {
             DataType::Unsigned16 => raw & 0xFFFF,
             DataType::Unsigned32 | DataType::VisibleString => raw,
         }
+    }
+
+    /// Does the raw 32-bit slot value `value` lie within the inclusive limits `lo` and `hi`
+    /// (raw patterns too), all read as numbers of this type?
+    #[inline]
+    const fn within(self, value: u32, lo: u32, hi: u32) -> bool {
+        let v = self.order_key(value);
+        v >= self.order_key(lo) && v <= self.order_key(hi)
     }
 
     /// True for the INTEGERn types.
@@ -234,9 +245,97 @@ pub enum CoreHook {
     PendingBitrate,
 }
 
-/// Longest VISIBLE_STRING an entry holds: it is kept in the entry, in the bytes a number's
-/// default and limits take (the longest string of the five manuals, 1008h "WV5800M", has 7).
+/// Longest VISIBLE_STRING an entry holds. Up to four characters are kept in the entry; a
+/// longer one must be one of [`STRINGS`]' runs of bytes (the longest of the five manuals, 1008h
+/// "WV5800M", has 7).
 pub const STRING_MAX: usize = 12;
+
+/// The bytes of every VISIBLE_STRING longer than four characters a dictionary declares, one
+/// after the other: such a string's entry keeps where its bytes start here and how many there
+/// are, so that a table's entries need not have room for the longest of them
+/// ([`Entry::string`] finds a declared string here; one that is not fails the declaration, at
+/// compile time for a `static` table).
+pub static STRINGS: [u8; 29] = *b"SGH10SGH50AP10TWV5800MWH5800M";
+
+/// The 32-bit patterns of every default and limit of a limited entry ([`Entry::range`]) that is
+/// not one the entry's one-byte codes give themselves (-32 to 127, 2^n, 2^n - 1; see `code`):
+/// a limited entry keeps the three as such codes so that a table's entries need not have room
+/// for twelve bytes of them. A value not found here fails the declaration, at compile time for
+/// a `static` table: add it (at most 32; the last ones are what the tests' own tables declare).
+pub static VALUES: [u32; 29] = [
+    -67_108_864i32 as u32,
+    -4_194_304i32 as u32,
+    -262_144i32 as u32,
+    -147_678i32 as u32,
+    -73_839i32 as u32,
+    -32_768i32 as u32,
+    -20_478i32 as u32,
+    -16_384i32 as u32,
+    -10_239i32 as u32,
+    239,
+    253,
+    254,
+    10_239,
+    30_717,
+    65_534,
+    73_839,
+    100_000,
+    221_517,
+    999_999,
+    1_048_559,
+    1_048_560,
+    16_776_959,
+    16_776_960,
+    268_431_359,
+    268_431_360,
+    // The tests' own tables.
+    -128i32 as u32,
+    -100i32 as u32,
+    0xFFCC,
+    240,
+];
+
+/// The one-byte code of `v`, a limited entry's default or limit: 00h-7Fh the numbers 0 to 127,
+/// E0h-FFh -32 to -1, A0h-BFh 2^n, C0h-DFh 2^n - 1 (n the low five bits), 80h-9Fh the
+/// [`VALUES`] at 0 to 31.
+const fn code(v: u32) -> u8 {
+    if v < 0x80 || v >= (-32i32) as u32 {
+        return v as u8;
+    }
+    if v.is_power_of_two() {
+        return 0xA0 | v.trailing_zeros() as u8;
+    }
+    if v.wrapping_add(1).is_power_of_two() {
+        return 0xC0 | v.trailing_ones() as u8;
+    }
+    let mut i = 0;
+    while i < VALUES.len() {
+        if VALUES[i] == v {
+            return 0x80 | i as u8;
+        }
+        i += 1;
+    }
+    panic!("a limited entry's default or limit not in od::VALUES");
+}
+
+/// The value of a [`code`] (0 for a code past the [`VALUES`], which [`code`] never gives).
+#[inline]
+const fn decode(c: u8) -> u32 {
+    let n = c & 0x1F;
+    match c >> 5 {
+        4 => {
+            if (n as usize) < VALUES.len() {
+                VALUES[n as usize]
+            } else {
+                0
+            }
+        }
+        5 => 1 << n,
+        6 => (1 << n) - 1,
+        _ => c as i8 as i32 as u32,
+    }
+}
+const _: () = assert!(VALUES.len() <= 32);
 
 // `Entry::flags`: the kind in the low two bits, then which reading of `Entry::data` applies.
 const KIND: u8 = 0b11;
@@ -244,28 +343,32 @@ const VAR: u8 = 0;
 const RECORD: u8 = 1;
 const ARRAY: u8 = 2;
 const MEMBER: u8 = 3;
-/// `data[4..12]` hold inclusive limits.
+/// The entry has limits: `data` holds the [`code`]s of the low limit, the high limit and the
+/// default (or its base), in this order.
 const LIMITED: u8 = 1 << 2;
-/// The default is `data[0..4]` plus the node-ID.
+/// The default is the default word plus the node-ID.
 const PLUS_NODE_ID: u8 = 1 << 3;
-/// `data` holds a VISIBLE_STRING's bytes, NUL-padded.
+/// `data` holds a VISIBLE_STRING of at most four bytes, NUL-padded.
 const STRING: u8 = 1 << 4;
 /// The default is the [`Od`]'s factory node-ID when it has one ([`Entry::factory_node_id`]),
-/// else `data[0..4]`.
+/// else the default word.
 const FACTORY_NODE_ID: u8 = 1 << 5;
+/// `data` holds where a longer VISIBLE_STRING starts in [`STRINGS`] and its length.
+const POOLED: u8 = 1 << 6;
 
 // Every table lives in the firmware's flash, about a hundred entries per device: an entry that
-// grows past 22 bytes on the 32-bit target should be a decision, not an accident. Without
+// grows past 14 bytes on the 32-bit target should be a decision, not an accident. Without
 // names an entry holds no pointer, so the assertion holds on the host too (`cargo test -p
 // od-core`); the names (host only) add two string references.
 #[cfg(not(feature = "names"))]
-const _: () = assert!(core::mem::size_of::<Entry>() <= 22);
+const _: () = assert!(core::mem::size_of::<Entry>() <= 14);
 
 /// One (index, sub-index) of a device's dictionary, as declared.
 ///
-/// 22 bytes in the firmware: the rare attributes are packed into one byte of flags, a number's
-/// default and limits are 32-bit patterns of its type (every value fits a 32-bit slot,
-/// D-ARCH-2), and a VISIBLE_STRING's bytes take their place ([`STRING_MAX`]).
+/// 14 bytes in the firmware: the rare attributes are packed into one byte of flags, and four
+/// bytes hold a number's default as a 32-bit pattern of its type (every value fits a 32-bit
+/// slot, D-ARCH-2), or a limited entry's default and limits as one-byte codes of the
+/// [`VALUES`], or a VISIBLE_STRING's bytes or where they are in [`STRINGS`].
 ///
 /// The parameter and object names the builders take are kept only with the `names` feature
 /// (the host's EDS generator and simulator views); without it, as in the firmware, they are
@@ -286,11 +389,13 @@ pub struct Entry {
     pub group: Group,
     /// Write side effect.
     pub hook: Hook,
-    /// [`Entry::kind`] and the reading of `data` (`LIMITED`, `PLUS_NODE_ID`, `STRING`).
+    /// [`Entry::kind`] and the reading of `data` (`LIMITED`, `PLUS_NODE_ID`, `STRING`,
+    /// `POOLED`).
     flags: u8,
-    /// A number: its default (or the base of a node-ID-relative one), low and high limits, each
-    /// a little-endian 32-bit pattern. A VISIBLE_STRING: its bytes, NUL-padded.
-    data: [u8; STRING_MAX],
+    /// A number: its default (or the base of a node-ID-relative one) as a little-endian 32-bit
+    /// pattern; with limits, the codes of low limit, high limit and default. A VISIBLE_STRING:
+    /// up to four bytes, NUL-padded, or its start in [`STRINGS`] and its length.
+    data: [u8; 4],
     /// Parameter name.
     #[cfg(feature = "names")]
     name: &'static str,
@@ -320,48 +425,69 @@ impl Entry {
             group: Group::None,
             hook: Hook::None,
             flags: kind,
-            data: [0; STRING_MAX],
+            data: [0; 4],
             #[cfg(feature = "names")]
             name: names.0,
             #[cfg(feature = "names")]
             object: names.1,
         };
-        e.put(0, default);
+        e.data = default.to_le_bytes();
         e
     }
 
-    /// Stores `v` as the 32-bit pattern at `data[at..at + 4]`.
-    const fn put(&mut self, at: usize, v: u32) {
-        let b = v.to_le_bytes();
-        let mut i = 0;
-        while i < 4 {
-            self.data[at + i] = b[i];
-            i += 1;
+    /// The default word: the declared default, or the base of a node-ID-relative one.
+    #[inline]
+    const fn word(&self) -> u32 {
+        if self.flags & LIMITED != 0 {
+            decode(self.data[2])
+        } else {
+            u32::from_le_bytes(self.data)
         }
     }
 
-    /// The 32-bit pattern at `data[at..at + 4]`.
-    const fn word(&self, at: usize) -> u32 {
-        let d = &self.data;
-        u32::from_le_bytes([d[at], d[at + 1], d[at + 2], d[at + 3]])
+    /// Sets the default word.
+    const fn put(&mut self, v: u32) {
+        if self.flags & LIMITED != 0 {
+            self.data[2] = code(v);
+        } else {
+            self.data = v.to_le_bytes();
+        }
+    }
+
+    /// The low and high limit of a limited entry as 32-bit patterns.
+    #[inline]
+    const fn limit_words(&self) -> (u32, u32) {
+        (decode(self.data[0]), decode(self.data[1]))
     }
 
     const fn is_string(&self) -> bool {
-        self.flags & STRING != 0
+        self.flags & (STRING | POOLED) != 0
     }
 
     /// A VISIBLE_STRING's value, its bytes; `None` for a number. What the firmware's paths
     /// read: [`Entry::default`] gives it as a `str`, at the price of a UTF-8 check that the
     /// firmware should not link.
+    #[inline]
     pub const fn string_value(&self) -> Option<&[u8]> {
-        if !self.is_string() {
-            return None;
+        if self.is_string() {
+            Some(self.string_bytes())
+        } else {
+            None
+        }
+    }
+
+    /// A VISIBLE_STRING's bytes, kept in the entry or in [`STRINGS`].
+    #[inline(never)]
+    const fn string_bytes(&self) -> &[u8] {
+        if self.flags & POOLED != 0 {
+            let (start, len) = (self.data[0] as usize, self.data[1] as usize);
+            return STRINGS.split_at(start).1.split_at(len).0;
         }
         let mut n = 0;
-        while n < STRING_MAX && self.data[n] != 0 {
+        while n < 4 && self.data[n] != 0 {
             n += 1;
         }
-        Some(self.data.split_at(n).0)
+        self.data.split_at(n).0
     }
 
     /// A plain variable at sub-index 0.
@@ -370,7 +496,8 @@ impl Entry {
     }
 
     /// A constant VISIBLE_STRING variable of at most [`STRING_MAX`] visible characters
-    /// (20h-7Eh; anything else fails the declaration, at compile time for a `static` table):
+    /// (20h-7Eh), one of [`STRINGS`] if longer than four (anything else fails the declaration,
+    /// at compile time for a `static` table):
     ///
     /// ```compile_fail,E0080
     /// use od_core::od::Entry;
@@ -384,10 +511,30 @@ impl Entry {
         let mut i = 0;
         while i < bytes.len() {
             assert!(bytes[i] >= 0x20 && bytes[i] <= 0x7E, "VISIBLE_STRING with a character outside 20h-7Eh");
-            e.data[i] = bytes[i];
             i += 1;
         }
-        e
+        if bytes.len() <= 4 {
+            let mut i = 0;
+            while i < bytes.len() {
+                e.data[i] = bytes[i];
+                i += 1;
+            }
+            return e;
+        }
+        let mut start = 0;
+        while start + bytes.len() <= STRINGS.len() {
+            let mut i = 0;
+            while i < bytes.len() && STRINGS[start + i] == bytes[i] {
+                i += 1;
+            }
+            if i == bytes.len() {
+                e.flags = VAR | POOLED;
+                e.data = [start as u8, bytes.len() as u8, 0, 0];
+                return e;
+            }
+            start += 1;
+        }
+        panic!("VISIBLE_STRING longer than four characters not in od::STRINGS");
     }
 
     /// Sub-index 0 of a RECORD: "highest sub-index supported", UNSIGNED8, `access`.
@@ -468,7 +615,7 @@ impl Entry {
     /// of errors, 0 by default, though the array has room for more).
     pub const fn with_default(mut self, value: u32) -> Entry {
         assert!(!self.is_string(), "a string's default is its value");
-        self.put(0, value);
+        self.put(value);
         self.flags &= !PLUS_NODE_ID;
         self
     }
@@ -484,8 +631,8 @@ impl Entry {
     pub const fn range(mut self, lo: i64, hi: i64) -> Entry {
         assert!(!self.is_string(), "a string has no limits");
         assert!(self.dtype.to_i64(lo as u32) == lo && self.dtype.to_i64(hi as u32) == hi, "limit outside the type");
-        self.put(4, lo as u32);
-        self.put(8, hi as u32);
+        let default = self.word();
+        self.data = [code(lo as u32), code(hi as u32), code(default), 0];
         self.flags |= LIMITED;
         self
     }
@@ -494,7 +641,8 @@ impl Entry {
     #[inline]
     pub const fn limits(&self) -> Option<(i64, i64)> {
         if self.flags & LIMITED != 0 {
-            Some((self.dtype.to_i64(self.word(4)), self.dtype.to_i64(self.word(8))))
+            let (lo, hi) = self.limit_words();
+            Some((self.dtype.to_i64(lo), self.dtype.to_i64(hi)))
         } else {
             None
         }
@@ -515,7 +663,7 @@ impl Entry {
     /// Default is `base` plus the node-ID.
     pub const fn plus_node_id(mut self, base: u32) -> Entry {
         assert!(!self.is_string(), "a string's default is its value");
-        self.put(0, base);
+        self.put(base);
         self.flags |= PLUS_NODE_ID;
         self
     }
@@ -551,7 +699,7 @@ impl Entry {
     /// The factory default.
     pub const fn default(&self) -> Default<'_> {
         if self.is_node_id_relative() {
-            Default::PlusNodeId(self.word(0))
+            Default::PlusNodeId(self.word())
         } else if let Some(bytes) = self.string_value() {
             // Checked visible ASCII when declared: never the empty fallback.
             match core::str::from_utf8(bytes) {
@@ -559,18 +707,18 @@ impl Entry {
                 Err(_) => Default::Str(""),
             }
         } else {
-            Default::Value(self.word(0))
+            Default::Value(self.word())
         }
     }
 
     /// The default value for a node with this node-ID (strings: 0).
     pub const fn default_value(&self, node_id: u8) -> u32 {
         if self.is_node_id_relative() {
-            self.word(0).wrapping_add(node_id as u32)
+            self.word().wrapping_add(node_id as u32)
         } else if self.is_string() {
             0
         } else {
-            self.word(0)
+            self.word()
         }
     }
 
@@ -784,9 +932,8 @@ impl Od {
             return Err(Abort::LENGTH_LOW);
         }
         if e.flags & LIMITED != 0 {
-            let key = |raw| e.dtype.order_key(raw);
-            let v = key(value);
-            if v < key(e.word(4)) || v > key(e.word(8)) {
+            let (lo, hi) = e.limit_words();
+            if !e.dtype.within(value, lo, hi) {
                 return Err(Abort::INVALID_VALUE);
             }
         }
@@ -863,10 +1010,14 @@ mod tests {
     }
 
     #[test]
-    fn strings_live_in_the_entry() {
-        let e = Entry::string(0x1008, "Name", "ABCDEFGHIJKL");
-        assert_eq!(e.default(), Default::Str("ABCDEFGHIJKL"));
-        assert_eq!((e.size(), e.default_value(5), e.limits()), (STRING_MAX, 0, None));
+    fn strings_live_in_the_entry_or_in_the_pool() {
+        let e = Entry::string(0x1008, "Name", "WH5800M");
+        assert_eq!(e.default(), Default::Str("WH5800M"));
+        assert_eq!((e.size(), e.default_value(5), e.limits()), (7, 0, None));
+        assert_eq!(e.string_value(), Some(&b"WH5800M"[..]));
+        let short = Entry::string(0x1009, "Short", "V1.0");
+        assert_eq!((short.default(), short.size()), (Default::Str("V1.0"), 4));
+        assert_eq!(short.string_value(), Some(&b"V1.0"[..]));
         let empty = Entry::string(0x1009, "Empty", "");
         assert_eq!((empty.default(), empty.size()), (Default::Str(""), 0));
         let od = Od::new(T, 1);
@@ -880,6 +1031,49 @@ mod tests {
     #[should_panic(expected = "longer than od::STRING_MAX")]
     fn a_string_longer_than_an_entry_is_refused() {
         let _ = Entry::string(0x1008, "Name", "ABCDEFGHIJKLM");
+    }
+
+    #[test]
+    #[should_panic(expected = "not in od::STRINGS")]
+    fn a_longer_string_must_be_in_the_pool() {
+        let _ = Entry::string(0x1008, "Name", "ABCDEFGHIJKL");
+    }
+
+    #[test]
+    #[should_panic(expected = "not in od::VALUES")]
+    fn a_limit_must_be_small_or_in_the_pool() {
+        let _ = Entry::var(0x2000, "X", DataType::Integer32, Access::Rw, 0).range(-1000, 1000);
+    }
+
+    #[test]
+    #[should_panic(expected = "not in od::VALUES")]
+    fn a_limited_entrys_default_must_be_small_or_in_the_pool() {
+        let _ = Entry::var(0x2000, "X", DataType::Unsigned32, Access::Rw, 1000).range(0, 65535);
+    }
+
+    #[test]
+    fn codes_round_trip() {
+        for v in VALUES
+            .iter()
+            .copied()
+            .chain((-32..=127).map(|v: i32| v as u32))
+            .chain((0..32).map(|n| 1 << n))
+            .chain((1..32).map(|n| (1 << n) - 1))
+        {
+            assert_eq!(decode(code(v)), v, "{v:#X}");
+        }
+        let mut seen: heapless::Vec<u32, 32> = heapless::Vec::new();
+        for v in VALUES {
+            assert!(!seen.contains(&v) && code(v) & 0xE0 == 0x80, "{v:#X}: twice or coded otherwise");
+            seen.push(v).unwrap();
+        }
+        // The builders keep a default set before or after the limits.
+        let e = Entry::var(0x2000, "X", DataType::Integer32, Access::Rw, 7).range(-10239, 10239);
+        assert_eq!((e.default_value(0), e.limits()), (7, Some((-10239, 10239))));
+        let e = e.with_default(100_000);
+        assert_eq!((e.default(), e.limits()), (Default::Value(100_000), Some((-10239, 10239))));
+        let e = e.plus_node_id(0x100).range(-1, 1);
+        assert_eq!((e.default(), e.default_value(2), e.limits()), (Default::PlusNodeId(0x100), 0x102, Some((-1, 1))));
     }
 
     #[test]
@@ -948,7 +1142,7 @@ mod tests {
 
         proptest! {
             /// The limit check (32-bit order keys) refuses exactly the values outside the
-            /// limits read as numbers of the type, for every numeric type.
+            /// limits read as numbers of the type, for every numeric type and any limits.
             #[test]
             fn limits_compare_as_numbers(t in 0usize..7, a in any::<u32>(), b in any::<u32>(), v in any::<u32>()) {
                 use DataType::*;
@@ -956,10 +1150,26 @@ mod tests {
                 let bytes = dtype.size();
                 let cut = |x: u32| if bytes == 4 { x } else { x & ((1 << (8 * bytes)) - 1) };
                 let (a, b, v) = (cut(a), cut(b), cut(v));
-                let (lo, hi) = {
-                    let (x, y) = (dtype.to_i64(a), dtype.to_i64(b));
-                    (x.min(y), x.max(y))
-                };
+                let (lo, hi) = if dtype.to_i64(a) <= dtype.to_i64(b) { (a, b) } else { (b, a) };
+                let n = dtype.to_i64(v);
+                prop_assert_eq!(dtype.within(v, lo, hi), dtype.to_i64(lo) <= n && n <= dtype.to_i64(hi));
+            }
+
+            /// A declared entry's limits, any that an entry can hold ([`code`]), refuse
+            /// exactly the values outside them read as numbers of the type.
+            #[test]
+            fn declared_limits_compare_as_numbers(t in 0usize..7, a in any::<u8>(), b in any::<u8>(), v in any::<u32>()) {
+                use DataType::*;
+                let dtype = [Boolean, Integer8, Integer16, Integer32, Unsigned8, Unsigned16, Unsigned32][t];
+                let bytes = dtype.size();
+                let cut = |x: u32| if bytes == 4 { x } else { x & ((1 << (8 * bytes)) - 1) };
+                let number = |x: u32| if dtype.is_signed() { x as i32 as i64 } else { x as i64 };
+                let valid = |c: u8| c & 0xE0 != 0x80 || ((c & 0x1F) as usize) < VALUES.len();
+                prop_assume!(valid(a) && valid(b));
+                let (a, b) = (number(decode(a)), number(decode(b)));
+                prop_assume!(dtype.to_i64(a as u32) == a && dtype.to_i64(b as u32) == b);
+                let v = cut(v);
+                let (lo, hi) = (a.min(b), a.max(b));
                 let table: &'static [Entry] =
                     Box::leak(Box::new([Entry::var(0x2000, "X", dtype, Access::Rw, 0).range(lo, hi)]));
                 let od = Od::new(table, 1);

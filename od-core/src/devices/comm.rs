@@ -17,7 +17,7 @@
 //! const PROFILE: Profile = Profile {
 //!     device_type: 0x000A_0196,
 //!     status_register: true,
-//!     device_name: Some("EXAMPLE"),
+//!     device_name: Some("SGH10"),
 //!     hardware_version: Some("V100"),
 //!     software_version: "V100",
 //!     identity: Identity::siko(Serial::Factory(1)),
