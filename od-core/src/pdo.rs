@@ -365,10 +365,12 @@ impl Pdos {
     /// PDO `n` of a direction (`n` below its count).
     #[inline(always)]
     fn pdo(&mut self, rx: bool, n: usize) -> &mut Pdo {
+        // `n` is below the direction's count, at most the array's length: the remainder only
+        // spares a bounds check.
         if rx {
-            &mut self.rpdo[n]
+            &mut self.rpdo[n % MAX_RPDOS]
         } else {
-            &mut self.tpdo[n]
+            &mut self.tpdo[n % MAX_TPDOS]
         }
     }
 
