@@ -950,14 +950,17 @@ fn apply(od: &mut Od, map: &Mapping, data: &[u8; 8]) -> bool {
             continue;
         }
         let e = od.entry(s.pos as usize);
-        let size = e.dtype.size() as u32;
+        // The value as a number: an unsigned one as received (it fits its type, which is at
+        // least as long as the mapping), a signed one sign-extended from its mapped bytes.
+        let mut x = v as i64;
         if e.dtype.is_signed() {
             // A signed object mapped shorter than its type: sign-extended within the type.
             let shift = 32 - 8 * n;
-            v = (((v << shift) as i32 >> shift) as u32) & (u32::MAX >> (32 - 8 * size));
+            let signed = (v << shift) as i32 >> shift;
+            x = signed as i64;
+            v = signed as u32 & (u32::MAX >> (32 - 8 * e.dtype.size() as u32));
         }
         if let Some((lo, hi)) = e.limits() {
-            let x = e.dtype.to_i64(v);
             if x < lo || x > hi {
                 return false;
             }
