@@ -438,7 +438,11 @@ impl Pdos {
             return;
         }
         self.running = operational;
-        for p in self.tpdo.iter_mut().chain(self.rpdo.iter_mut()) {
+        for p in &mut self.tpdo {
+            p.count = 0;
+            p.held = None;
+        }
+        for p in &mut self.rpdo {
             p.count = 0;
             p.held = None;
         }
