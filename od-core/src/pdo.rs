@@ -246,8 +246,11 @@ pub struct Pdos {
     sync_tx: u8,
     /// The TPDOs a SYNC samples (valid, mapped, type FCh), one bit each, kept alike.
     sync_sample: u8,
+    /// The TPDOs, the first `ntpdo` of them declared; the others stay [`Pdo::EMPTY`] (invalid,
+    /// unmapped), so that a walk over the whole array finds only declared ones.
     tpdo: [Tpdo; MAX_TPDOS],
     ntpdo: u8,
+    /// The RPDOs, the first `nrpdo` of them declared, the others [`Pdo::EMPTY`] alike.
     rpdo: [Rpdo; MAX_RPDOS],
     nrpdo: u8,
     /// Each TPDO's next event-timer transmission (types FEh/FFh with a non-zero event timer);
@@ -311,11 +314,11 @@ impl Pdos {
         if let Some(id) = self.sync_id() {
             push(RxId::data(id));
         }
-        for r in self.rpdos().iter().filter(|r| r.valid) {
+        for r in self.rpdo.iter().filter(|r| r.valid) {
             push(RxId::data(r.id));
             push(RxId::remote(r.id));
         }
-        for t in self.tpdos().iter().filter(|t| t.valid && t.rtr) {
+        for t in self.tpdo.iter().filter(|t| t.valid && t.rtr) {
             push(RxId::remote(t.id));
         }
     }
@@ -323,7 +326,7 @@ impl Pdos {
     #[inline(always)]
     fn refresh_sync_tx(&mut self) {
         let (mut counted, mut sampled) = (0, 0);
-        for (n, t) in self.tpdos().iter().enumerate() {
+        for (n, t) in self.tpdo.iter().enumerate() {
             if t.valid && t.map.ok {
                 match t.ttype {
                     1..=240 => counted |= 1 << n,
@@ -469,16 +472,16 @@ impl Pdos {
             return PdoEvent::None;
         }
         if frame.rtr {
-            if let Some(n) = find(self.tpdos(), frame.id) {
+            if let Some(n) = find(&self.tpdo, frame.id) {
                 let t = &self.tpdo[n as usize];
                 return if t.rtr && t.map.ok { PdoEvent::Rtr(n) } else { PdoEvent::None };
             }
-            return match find(self.rpdos(), frame.id) {
+            return match find(&self.rpdo, frame.id) {
                 Some(n) => PdoEvent::RpdoRtr(n),
                 None => PdoEvent::None,
             };
         }
-        let Some(n) = find(self.rpdos(), frame.id) else { return PdoEvent::None };
+        let Some(n) = find(&self.rpdo, frame.id) else { return PdoEvent::None };
         let r = &mut self.rpdo[n as usize];
         // CiA 301: fewer bytes than mapped → not processed; more → the first ones are used.
         if !r.map.ok || frame.len < r.map.len {
