@@ -357,10 +357,14 @@ impl Pdos {
         CanId::from_key(self.sync_key)
     }
 
+    /// The declared TPDOs (the tests' view; the code walks the whole arrays).
+    #[cfg(test)]
     fn tpdos(&self) -> &[Tpdo] {
         &self.tpdo[..(self.ntpdo as usize).min(MAX_TPDOS)]
     }
 
+    /// The declared RPDOs.
+    #[cfg(test)]
     fn rpdos(&self) -> &[Rpdo] {
         &self.rpdo[..(self.nrpdo as usize).min(MAX_RPDOS)]
     }
@@ -450,7 +454,7 @@ impl Pdos {
             p.held = None;
         }
         self.last = [None; MAX_TPDOS];
-        for n in 0..self.tpdos().len() {
+        for n in 0..MAX_TPDOS {
             self.restart(od, n, now);
         }
         self.refresh();
@@ -534,7 +538,7 @@ impl Pdos {
             t.held = Some(packed(od, &t.map));
         }
         let mut rpdos = 0;
-        for n in 0..self.rpdos().len() {
+        for n in 0..MAX_RPDOS {
             let r = &mut self.rpdo[n];
             if let Some(data) = r.held.take() {
                 if apply(od, &r.map, &data) {
@@ -550,7 +554,7 @@ impl Pdos {
         if !self.running || self.deadline.is_none_or(|d| d > now) {
             return;
         }
-        for n in 0..self.tpdos().len() {
+        for n in 0..MAX_TPDOS {
             let Some(due) = self.next[n] else { continue };
             if due > now {
                 continue;
@@ -592,7 +596,7 @@ impl Pdos {
     /// reads its set points back this way). Nothing is sent for a PDO that does not exist, is
     /// invalid or outside OPERATIONAL.
     pub fn reply(&self, ctx: &mut Context, rpdo: u8, tpdo: u8) {
-        let (Some(r), Some(t)) = (self.rpdos().get(rpdo as usize), self.tpdos().get(tpdo as usize)) else { return };
+        let (Some(r), Some(t)) = (self.rpdo.get(rpdo as usize), self.tpdo.get(tpdo as usize)) else { return };
         if self.running && r.valid && t.map.ok {
             send(ctx, r.id, &t.map, None);
         }
@@ -601,7 +605,7 @@ impl Pdos {
     /// Answers a remote request for TPDO `n` ([`PdoEvent::Rtr`]): the data sampled at the
     /// last SYNC (type FCh) or else its current data, on its identifier.
     pub fn answer_rtr(&self, ctx: &mut Context, n: u8) {
-        let Some(t) = self.tpdos().get(n as usize) else { return };
+        let Some(t) = self.tpdo.get(n as usize) else { return };
         if t.valid && t.map.ok {
             send(ctx, t.id, &t.map, t.held);
         }
@@ -610,7 +614,7 @@ impl Pdos {
     /// Sets the event timer (18xxh.05) of TPDO `n` (0-based) to `ms`, with the checks and timing
     /// of an SDO write: for a device whose own entry mirrors it (the encoders' 6200h cycle timer).
     pub fn set_event_timer(&mut self, ctx: &mut Context, n: u8, ms: u16, now: Instant) -> Result<(), Abort> {
-        let params = self.tpdos().get(n as usize).map(|t| t.params).filter(|p| p.event != NONE);
+        let params = self.tpdo.get(n as usize).map(|t| t.params).filter(|p| p.event != NONE);
         let params = params.ok_or(Abort::NO_OBJECT)?;
         if !params.asynchronous {
             return Err(Abort::READ_ONLY);
