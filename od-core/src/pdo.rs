@@ -246,8 +246,11 @@ pub struct Pdos {
     sync_tx: u8,
     /// The TPDOs a SYNC samples (valid, mapped, type FCh), one bit each, kept alike.
     sync_sample: u8,
+    /// The TPDOs, the first `ntpdo` of them declared; the others stay [`Pdo::EMPTY`] (invalid,
+    /// unmapped), so that a walk over the whole array finds only declared ones.
     tpdo: [Tpdo; MAX_TPDOS],
     ntpdo: u8,
+    /// The RPDOs, the first `nrpdo` of them declared, the others [`Pdo::EMPTY`] alike.
     rpdo: [Rpdo; MAX_RPDOS],
     nrpdo: u8,
     /// Each TPDO's next event-timer transmission (types FEh/FFh with a non-zero event timer);
@@ -311,11 +314,11 @@ impl Pdos {
         if let Some(id) = self.sync_id() {
             push(RxId::data(id));
         }
-        for r in self.rpdos().iter().filter(|r| r.valid) {
+        for r in self.rpdo.iter().filter(|r| r.valid) {
             push(RxId::data(r.id));
             push(RxId::remote(r.id));
         }
-        for t in self.tpdos().iter().filter(|t| t.valid && t.rtr) {
+        for t in self.tpdo.iter().filter(|t| t.valid && t.rtr) {
             push(RxId::remote(t.id));
         }
     }
@@ -323,7 +326,7 @@ impl Pdos {
     #[inline(always)]
     fn refresh_sync_tx(&mut self) {
         let (mut counted, mut sampled) = (0, 0);
-        for (n, t) in self.tpdos().iter().enumerate() {
+        for (n, t) in self.tpdo.iter().enumerate() {
             if t.valid && t.map.ok {
                 match t.ttype {
                     1..=240 => counted |= 1 << n,
@@ -354,10 +357,14 @@ impl Pdos {
         CanId::from_key(self.sync_key)
     }
 
+    /// The declared TPDOs (the tests' view; the code walks the whole arrays).
+    #[cfg(test)]
     fn tpdos(&self) -> &[Tpdo] {
         &self.tpdo[..(self.ntpdo as usize).min(MAX_TPDOS)]
     }
 
+    /// The declared RPDOs.
+    #[cfg(test)]
     fn rpdos(&self) -> &[Rpdo] {
         &self.rpdo[..(self.nrpdo as usize).min(MAX_RPDOS)]
     }
@@ -365,10 +372,12 @@ impl Pdos {
     /// PDO `n` of a direction (`n` below its count).
     #[inline(always)]
     fn pdo(&mut self, rx: bool, n: usize) -> &mut Pdo {
+        // `n` is below the direction's count, at most the array's length: the remainder only
+        // spares a bounds check.
         if rx {
-            &mut self.rpdo[n]
+            &mut self.rpdo[n % MAX_RPDOS]
         } else {
-            &mut self.tpdo[n]
+            &mut self.tpdo[n % MAX_TPDOS]
         }
     }
 
@@ -436,12 +445,16 @@ impl Pdos {
             return;
         }
         self.running = operational;
-        for p in self.tpdo.iter_mut().chain(self.rpdo.iter_mut()) {
+        for p in &mut self.tpdo {
+            p.count = 0;
+            p.held = None;
+        }
+        for p in &mut self.rpdo {
             p.count = 0;
             p.held = None;
         }
         self.last = [None; MAX_TPDOS];
-        for n in 0..self.tpdos().len() {
+        for n in 0..MAX_TPDOS {
             self.restart(od, n, now);
         }
         self.refresh();
@@ -463,16 +476,16 @@ impl Pdos {
             return PdoEvent::None;
         }
         if frame.rtr {
-            if let Some(n) = find(self.tpdos(), frame.id) {
+            if let Some(n) = find(&self.tpdo, frame.id) {
                 let t = &self.tpdo[n as usize];
                 return if t.rtr && t.map.ok { PdoEvent::Rtr(n) } else { PdoEvent::None };
             }
-            return match find(self.rpdos(), frame.id) {
+            return match find(&self.rpdo, frame.id) {
                 Some(n) => PdoEvent::RpdoRtr(n),
                 None => PdoEvent::None,
             };
         }
-        let Some(n) = find(self.rpdos(), frame.id) else { return PdoEvent::None };
+        let Some(n) = find(&self.rpdo, frame.id) else { return PdoEvent::None };
         let r = &mut self.rpdo[n as usize];
         // CiA 301: fewer bytes than mapped → not processed; more → the first ones are used.
         if !r.map.ok || frame.len < r.map.len {
@@ -525,7 +538,7 @@ impl Pdos {
             t.held = Some(packed(od, &t.map));
         }
         let mut rpdos = 0;
-        for n in 0..self.rpdos().len() {
+        for n in 0..MAX_RPDOS {
             let r = &mut self.rpdo[n];
             if let Some(data) = r.held.take() {
                 if apply(od, &r.map, &data) {
@@ -541,7 +554,7 @@ impl Pdos {
         if !self.running || self.deadline.is_none_or(|d| d > now) {
             return;
         }
-        for n in 0..self.tpdos().len() {
+        for n in 0..MAX_TPDOS {
             let Some(due) = self.next[n] else { continue };
             if due > now {
                 continue;
@@ -583,7 +596,7 @@ impl Pdos {
     /// reads its set points back this way). Nothing is sent for a PDO that does not exist, is
     /// invalid or outside OPERATIONAL.
     pub fn reply(&self, ctx: &mut Context, rpdo: u8, tpdo: u8) {
-        let (Some(r), Some(t)) = (self.rpdos().get(rpdo as usize), self.tpdos().get(tpdo as usize)) else { return };
+        let (Some(r), Some(t)) = (self.rpdo.get(rpdo as usize), self.tpdo.get(tpdo as usize)) else { return };
         if self.running && r.valid && t.map.ok {
             send(ctx, r.id, &t.map, None);
         }
@@ -592,7 +605,7 @@ impl Pdos {
     /// Answers a remote request for TPDO `n` ([`PdoEvent::Rtr`]): the data sampled at the
     /// last SYNC (type FCh) or else its current data, on its identifier.
     pub fn answer_rtr(&self, ctx: &mut Context, n: u8) {
-        let Some(t) = self.tpdos().get(n as usize) else { return };
+        let Some(t) = self.tpdo.get(n as usize) else { return };
         if t.valid && t.map.ok {
             send(ctx, t.id, &t.map, t.held);
         }
@@ -601,7 +614,7 @@ impl Pdos {
     /// Sets the event timer (18xxh.05) of TPDO `n` (0-based) to `ms`, with the checks and timing
     /// of an SDO write: for a device whose own entry mirrors it (the encoders' 6200h cycle timer).
     pub fn set_event_timer(&mut self, ctx: &mut Context, n: u8, ms: u16, now: Instant) -> Result<(), Abort> {
-        let params = self.tpdos().get(n as usize).map(|t| t.params).filter(|p| p.event != NONE);
+        let params = self.tpdo.get(n as usize).map(|t| t.params).filter(|p| p.event != NONE);
         let params = params.ok_or(Abort::NO_OBJECT)?;
         if !params.asynchronous {
             return Err(Abort::READ_ONLY);
@@ -948,14 +961,17 @@ fn apply(od: &mut Od, map: &Mapping, data: &[u8; 8]) -> bool {
             continue;
         }
         let e = od.entry(s.pos as usize);
-        let size = e.dtype.size() as u32;
+        // The value as a number: an unsigned one as received (it fits its type, which is at
+        // least as long as the mapping), a signed one sign-extended from its mapped bytes.
+        let mut x = v as i64;
         if e.dtype.is_signed() {
             // A signed object mapped shorter than its type: sign-extended within the type.
             let shift = 32 - 8 * n;
-            v = (((v << shift) as i32 >> shift) as u32) & (u32::MAX >> (32 - 8 * size));
+            let signed = (v << shift) as i32 >> shift;
+            x = signed as i64;
+            v = signed as u32 & (u32::MAX >> (32 - 8 * e.dtype.size() as u32));
         }
         if let Some((lo, hi)) = e.limits() {
-            let x = e.dtype.to_i64(v);
             if x < lo || x > hi {
                 return false;
             }
