@@ -331,7 +331,8 @@ impl<D: CanopenDevice> Node<D> {
         // One number per identifier (`key`, the frame's `CanId::key`): each test below is one
         // compare.
         // LSS works in every NMT state and without a node-ID (CiA 305).
-        if key == lss::RX_ID as u32 && self.lss.enabled() {
+        // `has_lss` first: a device without LSS (the AP10T) keeps no LSS code in this path.
+        if key == lss::RX_ID as u32 && self.device.has_lss() && self.lss.enabled() {
             let event = self.lss.on_frame(&mut self.ctx, frame, now);
             self.on_lss(event, now);
             self.notify();
@@ -431,7 +432,7 @@ impl<D: CanopenDevice> Node<D> {
             self.device.poll(&mut self.ctx, now);
             return;
         }
-        let event = self.lss.poll(&mut self.ctx, now);
+        let event = if self.device.has_lss() { self.lss.poll(&mut self.ctx, now) } else { LssEvent::None };
         if event != LssEvent::None {
             self.on_lss(event, now);
         }
@@ -495,7 +496,7 @@ impl<D: CanopenDevice> Node<D> {
         if self.device.has_requests() {
             return Some(Instant::ZERO);
         }
-        let mut next = self.lss.next_deadline();
+        let mut next = if self.device.has_lss() { self.lss.next_deadline() } else { None };
         if self.lss.switching() {
             return next;
         }
@@ -543,7 +544,7 @@ impl<D: CanopenDevice> Node<D> {
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
         self.due.forget();
         self.ctx.store_done(result.is_ok(), now);
-        if self.lss.store_done(&mut self.ctx, result.is_ok()) {
+        if self.device.has_lss() && self.lss.store_done(&mut self.ctx, result.is_ok()) {
             return;
         }
         let response = self.sdo.complete_deferred(result.map_err(|()| Abort::CANNOT_STORE));
