@@ -10,7 +10,7 @@
 //! the screen model only.
 
 use board_plan::keys::{Change, Debouncer};
-use board_plan::lcd::{frame, from_screen, Screen, FRAME_LEN, INIT};
+use board_plan::lcd::{frame, screen_frame, Screen, FRAME_LEN, INIT};
 use embassy_stm32::pac::{self, spi::vals as spi_vals};
 use embassy_stm32::peripherals::{PA0, PA1, PA2, PA3, PB0, PB1, PB10, PB11, PB12, PB13, PB15, SPI2};
 use embassy_stm32::rcc::enable_and_reset_without_stop;
@@ -184,7 +184,7 @@ impl Io<Ap10t> for Panel {
     fn show(&mut self, device: &Ap10t, _core: &Core, now: Instant) -> Option<Instant> {
         let View { screen, leds, .. } = device.view(now);
         // Comparing the 18 bytes for the driver is less code than comparing views.
-        let bytes = frame(&from_screen(&screen));
+        let bytes = screen_frame(&screen);
         if self.shown != Some(bytes) {
             self.lcd.write(&bytes);
             self.shown = Some(bytes);

@@ -89,6 +89,11 @@ impl Item {
 /// AP10T A30).
 pub const BAUD_LIST: [u8; 5] = [0, 1, 2, 3, 4];
 
+/// The position in [`BAUD_LIST`] of the setting `code` (the first for one not in the list).
+fn baud_index(code: u8) -> u8 {
+    BAUD_LIST.iter().position(|&b| b == code).unwrap_or(0) as u8
+}
+
 /// A baud-rate setting (5F0Ah sub 3) as text.
 pub const fn baud_text(code: u8) -> &'static str {
     match code {
@@ -294,102 +299,100 @@ impl Mode {
     }
 
     /// [`Mode::press`] in place: the mode becomes the next one; returns what the device must do.
+    /// Each mode's keys; a key a mode does not use changes nothing. The mode is changed where
+    /// it is (a step is mostly one field).
     pub(crate) fn step(&mut self, key: Key, ctx: &MenuContext) -> Option<Effect> {
         let m = KEYMAP;
-        let mut effect = None;
-        // Each mode's keys; a key a mode does not use changes nothing.
-        let next = match self {
-            Mode::Info(_) if key == m.parameterize && ctx.config_enable => Mode::List(Item::Id),
-            Mode::AutoId(id) if key == m.auto_id => {
-                effect = Some(Effect::AutoIdAdopted(*id));
-                Mode::Normal
+        match self {
+            Mode::Normal | Mode::PowerUp(_) => {}
+            Mode::Info(_) => {
+                if key == m.parameterize && ctx.config_enable {
+                    *self = Mode::List(Item::Id);
+                }
+            }
+            Mode::AutoId(id) => {
+                if key == m.auto_id {
+                    let id = *id;
+                    *self = Mode::Normal;
+                    return Some(Effect::AutoIdAdopted(id));
+                }
+            }
+            // One level back: the list to the set points, a parameter to the list.
+            _ if key == m.back => {
+                *self = match self {
+                    Mode::EditId(_) => Mode::List(Item::Id),
+                    Mode::Baud(_) => Mode::List(Item::Kbaud),
+                    Mode::EditCode(_) | Mode::Diagnosis(_) => Mode::List(Item::Code),
+                    _ => Mode::Normal,
+                };
             }
             Mode::List(item) => {
                 let item = *item;
-                if key == m.back {
-                    Mode::Normal
-                } else if key == m.value_input {
-                    Mode::List(item.next())
-                } else if key == m.confirm {
-                    match item {
-                        Item::Id => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
-                        Item::Kbaud => Mode::Baud(BAUD_LIST.iter().position(|&b| b == ctx.baud).unwrap_or(0) as u8),
-                        Item::Code => Mode::EditCode(Entry::new(0, 6)),
-                    }
-                } else {
-                    return None;
-                }
-            }
-            Mode::EditId(_) | Mode::EditCode(_) => {
-                let id = matches!(*self, Mode::EditId(_));
-                let (Mode::EditId(e) | Mode::EditCode(e)) = self else { return None };
-                if key == m.digit_select {
-                    e.select_left();
-                    return None;
-                }
                 if key == m.value_input {
-                    e.count_up();
-                    return None;
-                }
-                let item = if id { Item::Id } else { Item::Code };
-                if key == m.back {
-                    Mode::List(item)
-                } else if key != m.confirm {
-                    return None;
-                } else if id {
-                    match e.value() {
-                        v @ 1..=127 => {
-                            effect = Some(Effect::SetNodeId(v as u8));
-                            Mode::List(Item::Id)
-                        }
-                        // Out of 1..=127: not taken, the entry stays for a correction.
-                        _ => return None,
-                    }
-                } else {
-                    let scope = match e.value() {
-                        CODE_RESET_ALL => ResetScope::All,
-                        CODE_RESET_ALL_EXCEPT_BUS => ResetScope::AllExceptBus,
-                        CODE_RESET_BUS => ResetScope::BusOnly,
-                        CODE_DIAGNOSIS => {
-                            *self = Mode::Diagnosis(0);
-                            return None;
-                        }
-                        _ => {
-                            *self = Mode::List(Item::Code);
-                            return None;
-                        }
+                    *self = Mode::List(item.next());
+                } else if key == m.confirm {
+                    *self = match item {
+                        Item::Id => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
+                        Item::Kbaud => Mode::Baud(baud_index(ctx.baud)),
+                        Item::Code => Mode::EditCode(Entry::new(0, 6)),
                     };
-                    effect = Some(Effect::FactoryReset(scope));
-                    Mode::Normal
                 }
             }
             Mode::Baud(i) => {
-                let i = *i;
-                if key == m.back {
-                    Mode::List(Item::Kbaud)
-                } else if key == m.value_input {
-                    Mode::Baud((i + 1) % BAUD_LIST.len() as u8)
+                if key == m.value_input {
+                    *i = (*i + 1) % BAUD_LIST.len() as u8;
                 } else if key == m.confirm {
-                    effect = Some(Effect::SetBaud(BAUD_LIST[i as usize % BAUD_LIST.len()]));
-                    Mode::List(Item::Kbaud)
-                } else {
-                    return None;
+                    let code = BAUD_LIST[*i as usize % BAUD_LIST.len()];
+                    *self = Mode::List(Item::Kbaud);
+                    return Some(Effect::SetBaud(code));
                 }
             }
             Mode::Diagnosis(n) => {
-                let n = *n;
-                if key == m.back {
-                    Mode::List(Item::Code)
-                } else if key == m.value_input {
-                    Mode::Diagnosis(n.wrapping_add(1))
-                } else {
-                    return None;
+                if key == m.value_input {
+                    *n = n.wrapping_add(1);
                 }
             }
-            _ => return None,
+            Mode::EditId(e) | Mode::EditCode(e) => {
+                if key == m.digit_select {
+                    e.select_left();
+                } else if key == m.value_input {
+                    e.count_up();
+                } else if key == m.confirm {
+                    return self.confirm_entry();
+                }
+            }
+        }
+        None
+    }
+
+    /// The confirm key on an entered node-ID or CODE.
+    fn confirm_entry(&mut self) -> Option<Effect> {
+        let (Mode::EditId(e) | Mode::EditCode(e)) = *self else { return None };
+        let v = e.value();
+        let (next, effect) = if let Mode::EditId(_) = self {
+            // Out of 1..=127: not taken, the entry stays for a correction.
+            if !(1..=127).contains(&v) {
+                return None;
+            }
+            (Mode::List(Item::Id), Effect::SetNodeId(v as u8))
+        } else {
+            let scope = match v {
+                CODE_RESET_ALL => ResetScope::All,
+                CODE_RESET_ALL_EXCEPT_BUS => ResetScope::AllExceptBus,
+                CODE_RESET_BUS => ResetScope::BusOnly,
+                CODE_DIAGNOSIS => {
+                    *self = Mode::Diagnosis(0);
+                    return None;
+                }
+                _ => {
+                    *self = Mode::List(Item::Code);
+                    return None;
+                }
+            };
+            (Mode::Normal, Effect::FactoryReset(scope))
         };
         *self = next;
-        effect
+        Some(effect)
     }
 
     /// The two rows of a menu mode at `now` (for [`Mode::Normal`] the panel renders the set

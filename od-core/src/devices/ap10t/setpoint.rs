@@ -72,10 +72,7 @@ pub struct SetPoints {
 impl SetPoints {
     /// Nothing received: both invalid, control word 0.
     pub const fn new() -> SetPoints {
-        SetPoints {
-            sp: [SetPoint { bytes: [0; 6], ascii: false, valid: false, acknowledged: false }; 2],
-            control: 0,
-        }
+        SetPoints { sp: [SetPoint { bytes: [0; 6], ascii: false, valid: false, acknowledged: false }; 2], control: 0 }
     }
 
     /// One set point.
