@@ -13,7 +13,7 @@
 use crate::time::Instant;
 
 use super::keys::{Key, KEYMAP};
-use super::screen::{blink_on, number, Cell, Row, CELLS};
+use super::screen::{blink_on, number, put_digits, Cell, Row, CELLS};
 
 /// Without a key for this long the menu closes without a change (D-AP-9).
 pub const MENU_TIMEOUT_MS: u64 = 60_000;
@@ -155,10 +155,7 @@ impl Entry {
     /// The digits right-aligned, the selected one blank in the dark half of the blink period.
     fn row(&self, now: Instant) -> Row {
         let mut row = Row::BLANK;
-        let len = self.len as usize;
-        for i in 0..len {
-            row.0[CELLS - len + i].ch = b'0' + self.digits[i];
-        }
+        put_digits(&mut row, self.value(), 10, self.len as usize, 0);
         if !blink_on(now) {
             row.0[CELLS - 1 - self.pos as usize] = Cell::BLANK;
         }
@@ -256,9 +253,7 @@ const fn hex_digit(d: u8) -> u8 {
 /// `n` as four hex digits, right-aligned.
 fn hex_row(n: u16) -> Row {
     let mut row = Row::BLANK;
-    for i in 0..4 {
-        row.0[CELLS - 1 - i].ch = hex_digit((n >> (4 * i)) as u8 & 0xF);
-    }
+    put_digits(&mut row, n as u32, 16, 4, 0);
     row
 }
 

@@ -139,20 +139,30 @@ pub fn number(value: i32, decimals: u8) -> Option<Row> {
 /// when it did not, the row holds the six lowest digits without the sign.
 fn digits_row(value: i32, decimals: u8) -> (Row, bool) {
     let decimals = decimals.min(4) as usize;
-    let mut n = value.unsigned_abs();
     let mut row = Row::BLANK;
-    // Cells from the right: every digit, at least one before the point.
-    let mut i = 0;
-    while i < CELLS && (n > 0 || i <= decimals) {
-        row.0[CELLS - 1 - i] = Cell { ch: b'0' + (n % 10) as u8, dp: decimals > 0 && i == decimals };
-        n /= 10;
-        i += 1;
-    }
-    let fits = n == 0 && (value >= 0 || i < CELLS);
+    // Every digit, at least one before the point.
+    let (rest, i) = put_digits(&mut row, value.unsigned_abs(), 10, decimals + 1, decimals);
+    let fits = rest == 0 && (value >= 0 || i < CELLS);
     if value < 0 && fits {
         row.0[CELLS - 1 - i].ch = b'-';
     }
     (row, fits)
+}
+
+/// The one number formatter: the digits of `n` in `radix` (10 or 16, upper-case hex) into
+/// `row` from the right, at least `min` of them (leading zeros) and as many as `n` needs or fit,
+/// the point lit after the digit `point` places from the right (none for 0). Returns what is
+/// left of `n` (0 if every digit fitted) and the number of cells used.
+pub(crate) fn put_digits(row: &mut Row, mut n: u32, radix: u32, min: usize, point: usize) -> (u32, usize) {
+    let mut i = 0;
+    while i < CELLS && (n > 0 || i < min) {
+        let d = (n % radix) as u8;
+        let ch = if d < 10 { b'0' + d } else { b'A' + d - 10 };
+        row.0[CELLS - 1 - i] = Cell { ch, dp: point > 0 && i == point };
+        n /= radix;
+        i += 1;
+    }
+    (n, i)
 }
 
 /// "FULLL" (manual 3.2).
