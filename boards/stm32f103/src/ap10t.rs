@@ -132,11 +132,13 @@ impl Leds {
         Leds(())
     }
 
-    /// Lights the elements of `on` (LED 1 green, red, LED 2 green, red) and darkens the others.
-    pub fn set(&mut self, on: [bool; 4]) {
-        let [g1, r1, g2, r2] = on.map(|b| b as u32);
-        let lit = g1 | r1 << 1 | g2 << 10 | r2 << 11;
-        pac::GPIOB.bsrr().write(|w| w.0 = lit | (LED_MASK & !lit) << 16);
+    /// Lights the elements of `lit` (bit 0 LED 1 green, 1 red, 2 LED 2 green, 3 red, as
+    /// `Leds::bits` gives them) and darkens the others.
+    pub fn set(&mut self, lit: u8) {
+        let lit = lit as u32;
+        // Bits 0, 1 are PB0, PB1; bits 2, 3 are PB10, PB11.
+        let pins = lit & 0b11 | (lit & 0b1100) << 8;
+        pac::GPIOB.bsrr().write(|w| w.0 = pins | (LED_MASK & !pins) << 16);
     }
 }
 
@@ -189,7 +191,7 @@ impl Io<Ap10t> for Panel {
             self.lcd.write(&bytes);
             self.shown = Some(bytes);
         }
-        self.leds.set([leds.left.green, leds.left.red, leds.right.green, leds.right.red]);
+        self.leds.set(leds.bits());
         device.next_change(now)
     }
 }

@@ -124,6 +124,13 @@ impl Leds {
         let e = |i: u8| lit & 1 << i != 0;
         Leds { left: Bicolour { green: e(0), red: e(1) }, right: Bicolour { green: e(2), red: e(3) } }
     }
+
+    /// The elements lit, bit `i` = LED element `i` + 1 (LED1 green left, LED2 red left, LED3
+    /// green right, LED4 red right): [`Leds::from_bits`] undone.
+    pub fn bits(&self) -> u8 {
+        let (l, r) = (self.left, self.right);
+        l.green as u8 | (l.red as u8) << 1 | (r.green as u8) << 2 | (r.red as u8) << 3
+    }
 }
 
 /// The backlight at `now`.
@@ -224,6 +231,14 @@ mod tests {
         assert_eq!(leds(&cfg, &s, LIT).left, RED);
         assert_eq!(leds(&cfg, &s, DARK).left, OFF);
         assert!(next_change(&cfg, &s, LIT).is_some());
+    }
+
+    #[test]
+    fn bits_round_trip() {
+        for lit in 0..16 {
+            assert_eq!(Leds::from_bits(lit).bits(), lit);
+        }
+        assert_eq!(Leds { left: RED, right: GREEN }.bits(), 0b0110);
     }
 
     #[test]
