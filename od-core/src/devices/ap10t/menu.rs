@@ -13,7 +13,7 @@
 use crate::time::Instant;
 
 use super::keys::{Key, KEYMAP};
-use super::screen::{blink_on, number, put_digits, Cell, Row, CELLS};
+use super::screen::{blink_on, put_digits, Cell, Row, CELLS};
 
 /// Without a key for this long the menu closes without a change (D-AP-9).
 pub const MENU_TIMEOUT_MS: u64 = 60_000;
@@ -218,7 +218,9 @@ fn overlay(mut row: Row, value: Row) -> Row {
 
 /// `n` in decimal, right-aligned (the menu's numbers have at most five digits).
 fn decimal_row(n: u32) -> Row {
-    number(n as i32, 0).unwrap_or(Row::BLANK)
+    let mut row = Row::BLANK;
+    put_digits(&mut row, n, 10, 1, 0);
+    row
 }
 
 /// `n` in decimal as text.
@@ -395,10 +397,10 @@ impl Mode {
     /// most, as many as the panel keeps.
     pub fn screen(self, now: Instant, ctx: &MenuContext, diag: &[DiagEntry]) -> [Row; 2] {
         const ALL_SEGMENTS: &str = "8.8.8.8.8.8.";
-        // One shape for every mode: a text from the left on the upper row with `value` over it,
-        // and the lower row.
+        // One shape for every mode: a text from the left on the upper row with a decimal
+        // `value` right-aligned over it, and the lower row.
         let baud = |code: u8| Row::right(baud_text(code));
-        let mut value = Row::BLANK;
+        let mut value = None;
         let mut lower = Row::BLANK;
         let text = match self {
             Mode::Normal => "",
@@ -407,16 +409,16 @@ impl Mode {
                 ALL_SEGMENTS
             }
             Mode::Info(_) => {
-                value = decimal_row(ctx.node_id as u32);
+                value = Some(ctx.node_id as u32);
                 lower = baud(ctx.baud);
                 Item::Id.label()
             }
             Mode::List(item) => {
-                lower = match item {
-                    Item::Id => decimal_row(ctx.node_id as u32),
-                    Item::Kbaud => baud(ctx.baud),
-                    Item::Code => Row::BLANK,
-                };
+                match item {
+                    Item::Id => lower = decimal_row(ctx.node_id as u32),
+                    Item::Kbaud => lower = baud(ctx.baud),
+                    Item::Code => {}
+                }
                 item.label()
             }
             Mode::EditId(e) => {
@@ -439,14 +441,19 @@ impl Mode {
                 } else {
                     let i = n as usize % diag.len();
                     let e = diag[i];
-                    value = decimal_row(e.count as u32);
+                    value = Some(e.count as u32);
                     lower = hex_row(e.code);
                     &"12345678"[i..i + 1]
                 }
             }
             Mode::AutoId(_) => "New ID",
         };
-        [overlay(Row::left(text), value), lower]
+        let mut upper = Row::left(text);
+        if let Some(v) = value {
+            // What `overlay` of its `decimal_row` does: the digits replace the cells they take.
+            put_digits(&mut upper, v, 10, 1, 0);
+        }
+        [upper, lower]
     }
 
     /// Whether the mode's rows change with the blink clock.
