@@ -144,12 +144,15 @@ impl Entry {
     }
 
     fn select_left(&mut self) {
-        self.pos = (self.pos + 1) % self.len;
+        // The leftmost digit wraps round to the rightmost (`pos` < `len` always).
+        self.pos = if self.pos + 1 < self.len { self.pos + 1 } else { 0 };
     }
 
     fn count_up(&mut self) {
-        let i = (self.len - 1 - self.pos) as usize;
-        self.digits[i] = (self.digits[i] + 1) % 10;
+        let i = (self.len - 1 - self.pos) as usize % CELLS;
+        let d = &mut self.digits[i];
+        // 9 counts up to 0.
+        *d = if *d < 9 { *d + 1 } else { 0 };
     }
 
     /// The digits right-aligned, the selected one blank in the dark half of the blink period.
