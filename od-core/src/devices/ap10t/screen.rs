@@ -200,28 +200,30 @@ pub struct RowStyle {
 
 /// What a set point's row shows at `now`.
 pub fn set_point_row(sp: &SetPoint, style: RowStyle, now: Instant) -> Row {
-    if !sp.valid {
-        return no_set_point();
-    }
-    if !sp.acknowledged && !style.steady_unacknowledged && !blink_on(now) {
-        return Row::BLANK;
-    }
-    if sp.ascii {
+    let lit = blink_on(now);
+    // Every text row ("---", dark, "FULLL") through one `Row::right`.
+    let text = if !sp.valid {
+        "---"
+    } else if !sp.acknowledged && !style.steady_unacknowledged && !lit {
+        ""
+    } else if sp.ascii {
         return ascii(&sp.bytes);
-    }
-    let v = sp.number();
-    let extended = style.extended && sp.acknowledged && (EXTENDED_MIN..STANDARD_MIN).contains(&v);
-    if !extended && !(STANDARD_MIN..=MAX).contains(&v) {
-        return full();
-    }
-    // Every value of the standard range fits; one of the extended range that needs all six
-    // cells for its digits alternates its leftmost cell between '-' (lit half of the blink
-    // period) and the highest digit.
-    let (mut row, fits) = digits_row(v, style.decimals);
-    if !fits && blink_on(now) {
-        row.0[0].ch = b'-';
-    }
-    row
+    } else {
+        let v = sp.number();
+        let extended = style.extended && sp.acknowledged && (EXTENDED_MIN..STANDARD_MIN).contains(&v);
+        if extended || (STANDARD_MIN..=MAX).contains(&v) {
+            // Every value of the standard range fits; one of the extended range that needs all
+            // six cells for its digits alternates its leftmost cell between '-' (lit half of
+            // the blink period) and the highest digit.
+            let (mut row, fits) = digits_row(v, style.decimals);
+            if !fits && lit {
+                row.0[0].ch = b'-';
+            }
+            return row;
+        }
+        "FULLL"
+    };
+    Row::right(text)
 }
 
 /// Whether a set point's row changes with time (flashing or alternating).
