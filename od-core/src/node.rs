@@ -352,9 +352,11 @@ impl<D: CanopenDevice> Node<D> {
         } else if key == 0x600 + id {
             if !frame.rtr && self.nmt.sdo_allowed() {
                 let Node { ctx, device, sdo, nmt, heartbeat, guarding, pdo, lss, .. } = self;
+                // The device's constant: a device without segmented transfers keeps none here.
+                let expedited_only = device.sdo_expedited_only();
                 let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
                 let mut access = Access { ctx, device, services: &mut services };
-                if let Some(answer) = sdo.on_request(frame.payload(), now, &mut access) {
+                if let Some(answer) = sdo.on_request_as(expedited_only, frame.payload(), now, &mut access) {
                     ctx.out.send(Frame::std(0x580 + id as u16, &answer));
                 }
             }
