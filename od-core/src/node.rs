@@ -444,7 +444,8 @@ impl<D: CanopenDevice> Node<D> {
         if self.nmt == NmtState::Initialising {
             self.boot_up(now);
         }
-        if let Some(timeout) = self.sdo.poll(now) {
+        // Only a segmented transfer times out: none without them (the device's constant).
+        if let Some(timeout) = if self.device.sdo_expedited_only() { None } else { self.sdo.poll(now) } {
             self.send_sdo(Some(timeout));
         }
         self.heartbeat.poll(&mut self.ctx.out, self.ctx.node_id, self.nmt, now);
@@ -506,7 +507,9 @@ impl<D: CanopenDevice> Node<D> {
             if self.nmt == NmtState::Initialising {
                 return Some(Instant::ZERO);
             }
-            next = earliest(next, self.sdo.next_deadline());
+            if !self.device.sdo_expedited_only() {
+                next = earliest(next, self.sdo.next_deadline());
+            }
             next = earliest(next, self.heartbeat.next_deadline());
             next = earliest(next, self.guarding.next_deadline());
             next = earliest(next, self.pdo.next_deadline());
