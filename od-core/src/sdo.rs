@@ -142,8 +142,9 @@ impl SdoServer {
     }
 
     /// [`SdoServer::on_request`] with the caller's word on [`SdoServer::set_expedited_only`]
-    /// (the same value): a node passes its device's constant, so a device that serves
-    /// expedited transfers only (the AP10T) keeps no segmented transfer code.
+    /// (it must be the value set): a node passes its device's constant, so a device that serves
+    /// expedited transfers only (the AP10T) keeps no segmented transfer code and the others no
+    /// test of the setting.
     #[inline]
     pub fn on_request_as(
         &mut self,
@@ -242,12 +243,9 @@ impl SdoServer {
         }
     }
 
-    /// An initiate segmented download (e = 0): the transfer begins, unless the server takes
-    /// expedited ones only or the size indicated is more than any value holds.
+    /// An initiate segmented download (e = 0; the server takes segmented ones): the transfer
+    /// begins, unless the size indicated is more than any value holds.
     fn initiate_segmented(&mut self, d: &[u8; 8], index: u16, sub: u8, now: Instant) -> Result<(), Abort> {
-        if self.expedited_only {
-            return Err(Abort::INVALID_COMMAND);
-        }
         let size = match d[0] & wire::SIZED {
             0 => NO_SIZE,
             _ => match u32_le(d, 4) {
