@@ -126,7 +126,7 @@ impl Leds {
     }
 
     /// The elements lit, bit `i` = LED element `i` + 1 (LED1 green left, LED2 red left, LED3
-    /// green right, LED4 red right): [`Leds::from_bits`] undone.
+    /// green right, LED4 red right), as the view computed them.
     pub fn bits(&self) -> u8 {
         let (l, r) = (self.left, self.right);
         l.green as u8 | (l.red as u8) << 1 | (r.green as u8) << 2 | (r.red as u8) << 3
