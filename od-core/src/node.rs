@@ -331,7 +331,8 @@ impl<D: CanopenDevice> Node<D> {
         // One number per identifier (`key`, the frame's `CanId::key`): each test below is one
         // compare.
         // LSS works in every NMT state and without a node-ID (CiA 305).
-        if key == lss::RX_ID as u32 && self.lss.enabled() {
+        // `has_lss` first: a device without LSS (the AP10T) keeps no LSS code in this path.
+        if key == lss::RX_ID as u32 && self.device.has_lss() && self.lss.enabled() {
             let event = self.lss.on_frame(&mut self.ctx, frame, now);
             self.on_lss(event, now);
             self.notify();
@@ -351,9 +352,11 @@ impl<D: CanopenDevice> Node<D> {
         } else if key == 0x600 + id {
             if !frame.rtr && self.nmt.sdo_allowed() {
                 let Node { ctx, device, sdo, nmt, heartbeat, guarding, pdo, lss, .. } = self;
+                // The device's constant: a device without segmented transfers keeps none here.
+                let expedited_only = device.sdo_expedited_only();
                 let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
                 let mut access = Access { ctx, device, services: &mut services };
-                if let Some(answer) = sdo.on_request(frame.payload(), now, &mut access) {
+                if let Some(answer) = sdo.on_request_as(expedited_only, frame.payload(), now, &mut access) {
                     ctx.out.send(Frame::std(0x580 + id as u16, &answer));
                 }
             }
@@ -431,7 +434,7 @@ impl<D: CanopenDevice> Node<D> {
             self.device.poll(&mut self.ctx, now);
             return;
         }
-        let event = self.lss.poll(&mut self.ctx, now);
+        let event = if self.device.has_lss() { self.lss.poll(&mut self.ctx, now) } else { LssEvent::None };
         if event != LssEvent::None {
             self.on_lss(event, now);
         }
@@ -441,7 +444,8 @@ impl<D: CanopenDevice> Node<D> {
         if self.nmt == NmtState::Initialising {
             self.boot_up(now);
         }
-        if let Some(timeout) = self.sdo.poll(now) {
+        // Only a segmented transfer times out: none without them (the device's constant).
+        if let Some(timeout) = if self.device.sdo_expedited_only() { None } else { self.sdo.poll(now) } {
             self.send_sdo(Some(timeout));
         }
         self.heartbeat.poll(&mut self.ctx.out, self.ctx.node_id, self.nmt, now);
@@ -495,7 +499,7 @@ impl<D: CanopenDevice> Node<D> {
         if self.device.has_requests() {
             return Some(Instant::ZERO);
         }
-        let mut next = self.lss.next_deadline();
+        let mut next = if self.device.has_lss() { self.lss.next_deadline() } else { None };
         if self.lss.switching() {
             return next;
         }
@@ -503,7 +507,9 @@ impl<D: CanopenDevice> Node<D> {
             if self.nmt == NmtState::Initialising {
                 return Some(Instant::ZERO);
             }
-            next = earliest(next, self.sdo.next_deadline());
+            if !self.device.sdo_expedited_only() {
+                next = earliest(next, self.sdo.next_deadline());
+            }
             next = earliest(next, self.heartbeat.next_deadline());
             next = earliest(next, self.guarding.next_deadline());
             next = earliest(next, self.pdo.next_deadline());
@@ -543,7 +549,7 @@ impl<D: CanopenDevice> Node<D> {
     pub fn store_done(&mut self, result: Result<(), ()>, now: Instant) {
         self.due.forget();
         self.ctx.store_done(result.is_ok(), now);
-        if self.lss.store_done(&mut self.ctx, result.is_ok()) {
+        if self.device.has_lss() && self.lss.store_done(&mut self.ctx, result.is_ok()) {
             return;
         }
         let response = self.sdo.complete_deferred(result.map_err(|()| Abort::CANNOT_STORE));

@@ -138,6 +138,21 @@ impl SdoServer {
     /// (index, sub), or the transfer's for a segment.
     #[inline]
     pub fn on_request(&mut self, req: &[u8], now: Instant, dict: &mut impl ObjectAccess) -> Option<[u8; 8]> {
+        self.on_request_as(self.expedited_only, req, now, dict)
+    }
+
+    /// [`SdoServer::on_request`] with the caller's word on [`SdoServer::set_expedited_only`]
+    /// (it must be the value set): a node passes its device's constant, so a device that serves
+    /// expedited transfers only (the AP10T) keeps no segmented transfer code and the others no
+    /// test of the setting.
+    #[inline]
+    pub fn on_request_as(
+        &mut self,
+        expedited_only: bool,
+        req: &[u8],
+        now: Instant,
+        dict: &mut impl ObjectAccess,
+    ) -> Option<[u8; 8]> {
         let d = exactly_8(req)?;
         let cs = d[0];
         // A segment (ccs 0 and 3) carries no multiplexer: it continues the transfer's.
@@ -145,7 +160,7 @@ impl SdoServer {
             wire::CCS_DOWNLOAD_SEGMENT | wire::CCS_UPLOAD_SEGMENT => (self.index, self.sub),
             _ => (u16_le(d, 1), d[3]),
         };
-        match self.serve(d, index, sub, now, dict) {
+        match self.serve(expedited_only, d, index, sub, now, dict) {
             Ok(answer) => answer,
             Err(abort) => {
                 self.state = IDLE;
@@ -157,6 +172,7 @@ impl SdoServer {
     #[inline]
     fn serve(
         &mut self,
+        expedited_only: bool,
         d: &[u8; 8],
         index: u16,
         sub: u8,
@@ -178,11 +194,14 @@ impl SdoServer {
                 self.state = IDLE;
                 let confirm = wire::with_mux(wire::DOWNLOAD_INITIATED, index, sub, 0);
                 if cs & wire::EXPEDITED == 0 {
+                    if expedited_only {
+                        return Err(Abort::INVALID_COMMAND);
+                    }
                     return self.initiate_segmented(d, index, sub, now).map(|()| Some(confirm));
                 }
                 let len = if cs & wire::SIZED != 0 {
                     wire::expedited_len(cs)
-                } else if self.expedited_only {
+                } else if expedited_only {
                     return Err(Abort::INVALID_COMMAND);
                 } else {
                     // Without a size indication (22h) the object's size applies (CiA 301,
@@ -192,15 +211,20 @@ impl SdoServer {
                 };
                 (u32_le(d, 4) & wire::mask(len), len, confirm)
             }
-            wire::CCS_DOWNLOAD_SEGMENT if self.state == DOWNLOAD => match self.download_segment(d, now)? {
-                Ok(whole) => whole,
-                Err(confirm) => return Ok(Some(confirm)),
-            },
+            // No segmented transfer begins where expedited ones only are served.
+            wire::CCS_DOWNLOAD_SEGMENT if !expedited_only && self.state == DOWNLOAD => {
+                match self.download_segment(d, now)? {
+                    Ok(whole) => whole,
+                    Err(confirm) => return Ok(Some(confirm)),
+                }
+            }
             wire::CCS_INITIATE_UPLOAD => {
                 self.state = IDLE;
-                return self.upload(index, sub, now, dict).map(Some);
+                return self.upload(expedited_only, index, sub, now, dict).map(Some);
             }
-            wire::CCS_UPLOAD_SEGMENT if self.state == UPLOAD => return self.upload_segment(cs, now).map(Some),
+            wire::CCS_UPLOAD_SEGMENT if !expedited_only && self.state == UPLOAD => {
+                return self.upload_segment(cs, now).map(Some)
+            }
             // Abort from the client: the transfer ends without an answer.
             wire::CCS_ABORT => {
                 self.state = IDLE;
@@ -219,12 +243,9 @@ impl SdoServer {
         }
     }
 
-    /// An initiate segmented download (e = 0): the transfer begins, unless the server takes
-    /// expedited ones only or the size indicated is more than any value holds.
+    /// An initiate segmented download (e = 0; the server takes segmented ones): the transfer
+    /// begins, unless the size indicated is more than any value holds.
     fn initiate_segmented(&mut self, d: &[u8; 8], index: u16, sub: u8, now: Instant) -> Result<(), Abort> {
-        if self.expedited_only {
-            return Err(Abort::INVALID_COMMAND);
-        }
         let size = match d[0] & wire::SIZED {
             0 => NO_SIZE,
             _ => match u32_le(d, 4) {
@@ -238,11 +259,18 @@ impl SdoServer {
     }
 
     #[inline]
-    fn upload(&mut self, index: u16, sub: u8, now: Instant, dict: &mut impl ObjectAccess) -> Result<[u8; 8], Abort> {
+    fn upload(
+        &mut self,
+        expedited_only: bool,
+        index: u16,
+        sub: u8,
+        now: Instant,
+        dict: &mut impl ObjectAccess,
+    ) -> Result<[u8; 8], Abort> {
         // A value of 4 bytes or fewer goes out expedited; a longer one is read whole and sent
         // segmented.
         let (value, mut n) = dict.read_value(index, sub, &mut self.buf)?;
-        if self.expedited_only {
+        if expedited_only {
             n = n.min(4);
         }
         if n <= 4 {

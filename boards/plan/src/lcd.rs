@@ -185,17 +185,35 @@ pub const fn upside_down(seg: u8) -> u8 {
 /// shown as segment d alone, a low bar that says "something is here".
 pub fn from_screen(screen: &od_core::devices::ap10t::Screen) -> Screen {
     let mut out = Screen::default();
-    let turned = screen.rotated;
     for p in 0..ROWS {
         for k in 0..DIGITS {
-            // The cell shown on physical digit k of row p, and the one after it as read.
-            let (cells, i) = if turned { (&screen.rows[1 - p].0, DIGITS - 1 - k) } else { (&screen.rows[p].0, k) };
-            let g = glyph(cells[i].ch).unwrap_or(D);
-            let (g, dp) = if turned { (upside_down(g), i > 0 && cells[i - 1].dp) } else { (g, cells[i].dp) };
-            out.rows[p][k] = g | if dp { DP } else { 0 };
+            out.rows[p][k] = segments(screen, p, k);
         }
     }
     out
+}
+
+/// The segments of physical digit `k` of row `p` for `screen` (see [`from_screen`]).
+fn segments(screen: &od_core::devices::ap10t::Screen, p: usize, k: usize) -> u8 {
+    let turned = screen.rotated;
+    // The cell shown on physical digit k of row p, and the one after it as read.
+    let (cells, i) = if turned { (&screen.rows[1 - p].0, DIGITS - 1 - k) } else { (&screen.rows[p].0, k) };
+    let g = glyph(cells[i].ch).unwrap_or(D);
+    let (g, dp) = if turned { (upside_down(g), i > 0 && cells[i - 1].dp) } else { (g, cells[i].dp) };
+    g | if dp { DP } else { 0 }
+}
+
+/// `frame(&from_screen(screen))` in one pass, without the segment screen in between (the
+/// board's path from the device's screen to the driver).
+pub fn screen_frame(screen: &od_core::devices::ap10t::Screen) -> [u8; FRAME_LEN] {
+    let mut bytes = FRAME_HEAD;
+    for p in 0..ROWS {
+        for k in 0..DIGITS {
+            put_digit(&mut bytes, p * DIGITS + k, segments(screen, p, k));
+        }
+    }
+    bytes[FRAME_LEN - 1] = bytes[1];
+    bytes
 }
 
 /// RAM addresses of the HT1621.
@@ -276,19 +294,26 @@ const STREAM_ORDER: [u8; 8] = [A, B, C, DP, F, G, E, D];
 /// into a byte (the header is nine bits long); addresses 24..=31 are zero; the pad bits are
 /// digit 0's first seven again.
 pub fn frame(screen: &Screen) -> [u8; FRAME_LEN] {
-    let mut bytes = [0u8; FRAME_LEN];
-    bytes[0] = 0b1010_0000;
-    let mut k = 1;
-    for row in &screen.rows {
-        for &s in row {
-            let b = STREAM_ORDER.iter().fold(0u8, |b, &m| b << 1 | (s & m != 0) as u8);
-            bytes[k] |= b >> 1;
-            bytes[k + 1] = b << 7;
-            k += 1;
-        }
+    let mut bytes = FRAME_HEAD;
+    for (k, &s) in screen.rows.iter().flatten().enumerate() {
+        put_digit(&mut bytes, k, s);
     }
     bytes[FRAME_LEN - 1] = bytes[1];
     bytes
+}
+
+/// A frame's first byte (mode `101`, the address's first five bits), the rest still 0.
+const FRAME_HEAD: [u8; FRAME_LEN] = {
+    let mut bytes = [0u8; FRAME_LEN];
+    bytes[0] = 0b1010_0000;
+    bytes
+};
+
+/// Digit `k`'s segments `s` into a frame: eight bits from bit 1 of byte `k + 1`.
+fn put_digit(bytes: &mut [u8; FRAME_LEN], k: usize, s: u8) {
+    let b = STREAM_ORDER.iter().fold(0u8, |b, &m| b << 1 | (s & m != 0) as u8);
+    bytes[k + 1] |= b >> 1;
+    bytes[k + 2] = b << 7;
 }
 
 #[cfg(test)]
@@ -451,6 +476,22 @@ mod tests {
                     }
                 }
                 assert_eq!(from_screen(&screen), want, "{rows:?} rotated {rotated}");
+            }
+        }
+    }
+
+    #[test]
+    fn screen_frame_is_the_frame_of_from_screen() {
+        use od_core::devices::ap10t::screen::{Row as TextRow, Screen as TextScreen};
+        let rows = [
+            [TextRow::right("-123.45"), TextRow::left("AP10TX")],
+            [TextRow::left("1.2.3.4.5.6."), TextRow::right("FULLL")],
+            [TextRow::left(".K.W"), TextRow::right("8.8.8.8.8.8.")],
+        ];
+        for rows in rows {
+            for rotated in [false, true] {
+                let screen = TextScreen { rows, rotated };
+                assert_eq!(screen_frame(&screen), frame(&from_screen(&screen)), "{rows:?} rotated {rotated}");
             }
         }
     }

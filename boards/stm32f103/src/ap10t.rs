@@ -10,7 +10,7 @@
 //! the screen model only.
 
 use board_plan::keys::{Change, Debouncer};
-use board_plan::lcd::{frame, from_screen, Screen, FRAME_LEN, INIT};
+use board_plan::lcd::{frame, screen_frame, Screen, FRAME_LEN, INIT};
 use embassy_stm32::pac::{self, spi::vals as spi_vals};
 use embassy_stm32::peripherals::{PA0, PA1, PA2, PA3, PB0, PB1, PB10, PB11, PB12, PB13, PB15, SPI2};
 use embassy_stm32::rcc::enable_and_reset_without_stop;
@@ -132,11 +132,13 @@ impl Leds {
         Leds(())
     }
 
-    /// Lights the elements of `on` (LED 1 green, red, LED 2 green, red) and darkens the others.
-    pub fn set(&mut self, on: [bool; 4]) {
-        let [g1, r1, g2, r2] = on.map(|b| b as u32);
-        let lit = g1 | r1 << 1 | g2 << 10 | r2 << 11;
-        pac::GPIOB.bsrr().write(|w| w.0 = lit | (LED_MASK & !lit) << 16);
+    /// Lights the elements of `lit` (bit 0 LED 1 green, 1 red, 2 LED 2 green, 3 red, as
+    /// `Leds::bits` gives them) and darkens the others.
+    pub fn set(&mut self, lit: u8) {
+        let lit = lit as u32;
+        // Bits 0, 1 are PB0, PB1; bits 2, 3 are PB10, PB11.
+        let pins = lit & 0b11 | (lit & 0b1100) << 8;
+        pac::GPIOB.bsrr().write(|w| w.0 = pins | (LED_MASK & !pins) << 16);
     }
 }
 
@@ -184,12 +186,12 @@ impl Io<Ap10t> for Panel {
     fn show(&mut self, device: &Ap10t, _core: &Core, now: Instant) -> Option<Instant> {
         let View { screen, leds, .. } = device.view(now);
         // Comparing the 18 bytes for the driver is less code than comparing views.
-        let bytes = frame(&from_screen(&screen));
+        let bytes = screen_frame(&screen);
         if self.shown != Some(bytes) {
             self.lcd.write(&bytes);
             self.shown = Some(bytes);
         }
-        self.leds.set([leds.left.green, leds.left.red, leds.right.green, leds.right.red]);
+        self.leds.set(leds.bits());
         device.next_change(now)
     }
 }

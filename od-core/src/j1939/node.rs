@@ -283,7 +283,8 @@ impl<D: J1939Device> J1939Node<D> {
     fn serve(&mut self, data: &[u8], requester: Address, sa: Address, now: Instant) {
         self.requester = Some(requester);
         let J1939Node { ctx, device, sdo, .. } = self;
-        let reply = sdo.on_request(data, now, &mut Access { ctx, device, services: &mut NoServices });
+        // The server is never set to expedited transfers only here.
+        let reply = sdo.on_request_as(false, data, now, &mut Access { ctx, device, services: &mut NoServices });
         match reply {
             Some(r) => self.ctx.out.send(param::answer(&r, requester, sa)),
             // A client abort has no answer, and leaves a waiting save's requester alone.

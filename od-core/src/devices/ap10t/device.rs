@@ -265,17 +265,16 @@ impl Ap10t {
         }
     }
 
-    /// Sends the answer to a remote request for set point `n` + 1 with `send`: only that
-    /// answer carries the data identifier in status word bit 9 (D-AP-13). One copy for both
-    /// kinds of remote request (`send` is not generic).
+    /// Before the answer to a remote request for set point `n` + 1: only that answer carries
+    /// the data identifier in status word bit 9 (D-AP-13), so 5F19h gets it for the answer;
+    /// returns the plain status word, which the caller puts back after sending.
     #[inline(never)]
-    fn remote_answer(&self, core: &mut Core, n: u8, send: &dyn Fn(&mut Core)) {
+    fn remote_status(&self, core: &mut Core, n: u8) -> u32 {
         let which = if n == 0 { Which::Sp1 } else { Which::Sp2 };
         let plain = self.panel.status_bits();
         let ascii = self.panel.set_points().get(which).ascii;
         core.od.set(at::STATUS_WORD, (plain | if ascii { sw::ASCII } else { 0 }) as u32);
-        send(core);
-        core.od.set(at::STATUS_WORD, plain as u32);
+        plain as u32
     }
 
     fn report(&mut self, core: &mut Core, now: Instant) {
@@ -454,12 +453,16 @@ impl CanopenDevice for Ap10t {
 
     fn on_rpdo_rtr(&mut self, core: &mut Core, n: u8, reply: &RtrReply, now: Instant) {
         self.ensure_started(core, now);
-        self.remote_answer(core, n, &|core| reply.send(core, n));
+        let plain = self.remote_status(core, n);
+        reply.send(core, n);
+        core.od.set(at::STATUS_WORD, plain);
     }
 
     fn on_tpdo_rtr(&mut self, core: &mut Core, n: u8, answer: &RtrAnswer, now: Instant) {
         self.ensure_started(core, now);
-        self.remote_answer(core, n, &|core| answer.send(core));
+        let plain = self.remote_status(core, n);
+        answer.send(core);
+        core.od.set(at::STATUS_WORD, plain);
     }
 
     fn on_sync(&mut self, core: &mut Core, now: Instant) {

@@ -13,6 +13,7 @@ use crate::time::Instant;
 
 use super::screen::{blink_on, next_blink_edge};
 use super::setpoint::SetPoints;
+use super::words::cw;
 
 /// One bi-colour LED.
 #[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
@@ -77,7 +78,7 @@ impl Default for LightConfig {
 /// The four elements in 5F12h order as bits 0-3 (LED1 green left, LED2 red left, LED3 green
 /// right, LED4 red right): which are on, and which of those blink.
 fn elements(cfg: &LightConfig, sps: &SetPoints) -> (u8, u8) {
-    let cw = sps.control;
+    let w = sps.control;
     let [s1, s2] = sps.sp;
     let bits = |b: [bool; 4]| b.iter().enumerate().fold(0u8, |m, (i, &on)| m | (on as u8) << i);
     let by_ack = bits([
@@ -86,13 +87,14 @@ fn elements(cfg: &LightConfig, sps: &SetPoints) -> (u8, u8) {
         s2.valid && s2.acknowledged,
         s2.valid && !s2.acknowledged,
     ]);
-    let by_cw = bits([cw.led1_green_left, cw.led2_red_left, cw.led3_green_right, cw.led4_red_right]);
+    // Control word bits 11 (LED1), 14 (LED2), 12 (LED3), 13 (LED4) to elements 0..=3.
+    let by_cw = (w >> 11 & 1 | w >> 13 & 2 | w >> 10 & 0b1100) as u8;
     let ack_dependent = bits(cfg.ack_dependent);
     let on = (by_ack & ack_dependent) | (by_cw & !ack_dependent);
     // FLASH LED makes every element blink, control word bit 15 those under its control.
     let blinks = if cfg.flash_leds {
         0x0F
-    } else if cw.led_blink {
+    } else if w & cw::LED_BLINK != 0 {
         !ack_dependent
     } else {
         0
@@ -121,6 +123,13 @@ impl Leds {
     pub(crate) fn from_bits(lit: u8) -> Leds {
         let e = |i: u8| lit & 1 << i != 0;
         Leds { left: Bicolour { green: e(0), red: e(1) }, right: Bicolour { green: e(2), red: e(3) } }
+    }
+
+    /// The elements lit, bit `i` = LED element `i` + 1 (LED1 green left, LED2 red left, LED3
+    /// green right, LED4 red right), as the view computed them.
+    pub fn bits(&self) -> u8 {
+        let (l, r) = (self.left, self.right);
+        l.green as u8 | (l.red as u8) << 1 | (r.green as u8) << 2 | (r.red as u8) << 3
     }
 }
 
@@ -222,6 +231,14 @@ mod tests {
         assert_eq!(leds(&cfg, &s, LIT).left, RED);
         assert_eq!(leds(&cfg, &s, DARK).left, OFF);
         assert!(next_change(&cfg, &s, LIT).is_some());
+    }
+
+    #[test]
+    fn bits_round_trip() {
+        for lit in 0..16 {
+            assert_eq!(Leds::from_bits(lit).bits(), lit);
+        }
+        assert_eq!(Leds { left: RED, right: GREEN }.bits(), 0b0110);
     }
 
     #[test]

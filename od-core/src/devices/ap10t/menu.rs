@@ -13,7 +13,7 @@
 use crate::time::Instant;
 
 use super::keys::{Key, KEYMAP};
-use super::screen::{blink_on, number, Cell, Row, CELLS};
+use super::screen::{blink_on, put_digits, Cell, Row, CELLS};
 
 /// Without a key for this long the menu closes without a change (D-AP-9).
 pub const MENU_TIMEOUT_MS: u64 = 60_000;
@@ -89,6 +89,11 @@ impl Item {
 /// AP10T A30).
 pub const BAUD_LIST: [u8; 5] = [0, 1, 2, 3, 4];
 
+/// The position in [`BAUD_LIST`] of the setting `code` (the first for one not in the list).
+fn baud_index(code: u8) -> u8 {
+    BAUD_LIST.iter().position(|&b| b == code).unwrap_or(0) as u8
+}
+
 /// A baud-rate setting (5F0Ah sub 3) as text.
 pub const fn baud_text(code: u8) -> &'static str {
     match code {
@@ -139,21 +144,21 @@ impl Entry {
     }
 
     fn select_left(&mut self) {
-        self.pos = (self.pos + 1) % self.len;
+        // The leftmost digit wraps round to the rightmost (`pos` < `len` always).
+        self.pos = if self.pos + 1 < self.len { self.pos + 1 } else { 0 };
     }
 
     fn count_up(&mut self) {
-        let i = (self.len - 1 - self.pos) as usize;
-        self.digits[i] = (self.digits[i] + 1) % 10;
+        let i = (self.len - 1 - self.pos) as usize % CELLS;
+        let d = &mut self.digits[i];
+        // 9 counts up to 0.
+        *d = if *d < 9 { *d + 1 } else { 0 };
     }
 
     /// The digits right-aligned, the selected one blank in the dark half of the blink period.
     fn row(&self, now: Instant) -> Row {
         let mut row = Row::BLANK;
-        let len = self.len as usize;
-        for i in 0..len {
-            row.0[CELLS - len + i].ch = b'0' + self.digits[i];
-        }
+        put_digits(&mut row, self.value(), 10, self.len as usize, 0);
         if !blink_on(now) {
             row.0[CELLS - 1 - self.pos as usize] = Cell::BLANK;
         }
@@ -216,7 +221,9 @@ fn overlay(mut row: Row, value: Row) -> Row {
 
 /// `n` in decimal, right-aligned (the menu's numbers have at most five digits).
 fn decimal_row(n: u32) -> Row {
-    number(n as i32, 0).unwrap_or(Row::BLANK)
+    let mut row = Row::BLANK;
+    put_digits(&mut row, n, 10, 1, 0);
+    row
 }
 
 /// `n` in decimal as text.
@@ -251,9 +258,7 @@ const fn hex_digit(d: u8) -> u8 {
 /// `n` as four hex digits, right-aligned.
 fn hex_row(n: u16) -> Row {
     let mut row = Row::BLANK;
-    for i in 0..4 {
-        row.0[CELLS - 1 - i].ch = hex_digit((n >> (4 * i)) as u8 & 0xF);
-    }
+    put_digits(&mut row, n as u32, 16, 4, 0);
     row
 }
 
@@ -294,102 +299,100 @@ impl Mode {
     }
 
     /// [`Mode::press`] in place: the mode becomes the next one; returns what the device must do.
+    /// Each mode's keys; a key a mode does not use changes nothing. The mode is changed where
+    /// it is (a step is mostly one field).
     pub(crate) fn step(&mut self, key: Key, ctx: &MenuContext) -> Option<Effect> {
         let m = KEYMAP;
-        let mut effect = None;
-        // Each mode's keys; a key a mode does not use changes nothing.
-        let next = match self {
-            Mode::Info(_) if key == m.parameterize && ctx.config_enable => Mode::List(Item::Id),
-            Mode::AutoId(id) if key == m.auto_id => {
-                effect = Some(Effect::AutoIdAdopted(*id));
-                Mode::Normal
+        match self {
+            Mode::Normal | Mode::PowerUp(_) => {}
+            Mode::Info(_) => {
+                if key == m.parameterize && ctx.config_enable {
+                    *self = Mode::List(Item::Id);
+                }
+            }
+            Mode::AutoId(id) => {
+                if key == m.auto_id {
+                    let id = *id;
+                    *self = Mode::Normal;
+                    return Some(Effect::AutoIdAdopted(id));
+                }
+            }
+            // One level back: the list to the set points, a parameter to the list.
+            _ if key == m.back => {
+                *self = match self {
+                    Mode::EditId(_) => Mode::List(Item::Id),
+                    Mode::Baud(_) => Mode::List(Item::Kbaud),
+                    Mode::EditCode(_) | Mode::Diagnosis(_) => Mode::List(Item::Code),
+                    _ => Mode::Normal,
+                };
             }
             Mode::List(item) => {
                 let item = *item;
-                if key == m.back {
-                    Mode::Normal
-                } else if key == m.value_input {
-                    Mode::List(item.next())
-                } else if key == m.confirm {
-                    match item {
-                        Item::Id => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
-                        Item::Kbaud => Mode::Baud(BAUD_LIST.iter().position(|&b| b == ctx.baud).unwrap_or(0) as u8),
-                        Item::Code => Mode::EditCode(Entry::new(0, 6)),
-                    }
-                } else {
-                    return None;
-                }
-            }
-            Mode::EditId(_) | Mode::EditCode(_) => {
-                let id = matches!(*self, Mode::EditId(_));
-                let (Mode::EditId(e) | Mode::EditCode(e)) = self else { return None };
-                if key == m.digit_select {
-                    e.select_left();
-                    return None;
-                }
                 if key == m.value_input {
-                    e.count_up();
-                    return None;
-                }
-                let item = if id { Item::Id } else { Item::Code };
-                if key == m.back {
-                    Mode::List(item)
-                } else if key != m.confirm {
-                    return None;
-                } else if id {
-                    match e.value() {
-                        v @ 1..=127 => {
-                            effect = Some(Effect::SetNodeId(v as u8));
-                            Mode::List(Item::Id)
-                        }
-                        // Out of 1..=127: not taken, the entry stays for a correction.
-                        _ => return None,
-                    }
-                } else {
-                    let scope = match e.value() {
-                        CODE_RESET_ALL => ResetScope::All,
-                        CODE_RESET_ALL_EXCEPT_BUS => ResetScope::AllExceptBus,
-                        CODE_RESET_BUS => ResetScope::BusOnly,
-                        CODE_DIAGNOSIS => {
-                            *self = Mode::Diagnosis(0);
-                            return None;
-                        }
-                        _ => {
-                            *self = Mode::List(Item::Code);
-                            return None;
-                        }
+                    *self = Mode::List(item.next());
+                } else if key == m.confirm {
+                    *self = match item {
+                        Item::Id => Mode::EditId(Entry::new(ctx.node_id as u32, 3)),
+                        Item::Kbaud => Mode::Baud(baud_index(ctx.baud)),
+                        Item::Code => Mode::EditCode(Entry::new(0, 6)),
                     };
-                    effect = Some(Effect::FactoryReset(scope));
-                    Mode::Normal
                 }
             }
             Mode::Baud(i) => {
-                let i = *i;
-                if key == m.back {
-                    Mode::List(Item::Kbaud)
-                } else if key == m.value_input {
-                    Mode::Baud((i + 1) % BAUD_LIST.len() as u8)
+                if key == m.value_input {
+                    *i = (*i + 1) % BAUD_LIST.len() as u8;
                 } else if key == m.confirm {
-                    effect = Some(Effect::SetBaud(BAUD_LIST[i as usize % BAUD_LIST.len()]));
-                    Mode::List(Item::Kbaud)
-                } else {
-                    return None;
+                    let code = BAUD_LIST[*i as usize % BAUD_LIST.len()];
+                    *self = Mode::List(Item::Kbaud);
+                    return Some(Effect::SetBaud(code));
                 }
             }
             Mode::Diagnosis(n) => {
-                let n = *n;
-                if key == m.back {
-                    Mode::List(Item::Code)
-                } else if key == m.value_input {
-                    Mode::Diagnosis(n.wrapping_add(1))
-                } else {
-                    return None;
+                if key == m.value_input {
+                    *n = n.wrapping_add(1);
                 }
             }
-            _ => return None,
+            Mode::EditId(e) | Mode::EditCode(e) => {
+                if key == m.digit_select {
+                    e.select_left();
+                } else if key == m.value_input {
+                    e.count_up();
+                } else if key == m.confirm {
+                    return self.confirm_entry();
+                }
+            }
+        }
+        None
+    }
+
+    /// The confirm key on an entered node-ID or CODE.
+    fn confirm_entry(&mut self) -> Option<Effect> {
+        let (Mode::EditId(e) | Mode::EditCode(e)) = *self else { return None };
+        let v = e.value();
+        let (next, effect) = if let Mode::EditId(_) = self {
+            // Out of 1..=127: not taken, the entry stays for a correction.
+            if !(1..=127).contains(&v) {
+                return None;
+            }
+            (Mode::List(Item::Id), Effect::SetNodeId(v as u8))
+        } else {
+            let scope = match v {
+                CODE_RESET_ALL => ResetScope::All,
+                CODE_RESET_ALL_EXCEPT_BUS => ResetScope::AllExceptBus,
+                CODE_RESET_BUS => ResetScope::BusOnly,
+                CODE_DIAGNOSIS => {
+                    *self = Mode::Diagnosis(0);
+                    return None;
+                }
+                _ => {
+                    *self = Mode::List(Item::Code);
+                    return None;
+                }
+            };
+            (Mode::Normal, Effect::FactoryReset(scope))
         };
         *self = next;
-        effect
+        Some(effect)
     }
 
     /// The two rows of a menu mode at `now` (for [`Mode::Normal`] the panel renders the set
@@ -397,10 +400,10 @@ impl Mode {
     /// most, as many as the panel keeps.
     pub fn screen(self, now: Instant, ctx: &MenuContext, diag: &[DiagEntry]) -> [Row; 2] {
         const ALL_SEGMENTS: &str = "8.8.8.8.8.8.";
-        // One shape for every mode: a text from the left on the upper row with `value` over it,
-        // and the lower row.
+        // One shape for every mode: a text from the left on the upper row with a decimal
+        // `value` right-aligned over it, and the lower row.
         let baud = |code: u8| Row::right(baud_text(code));
-        let mut value = Row::BLANK;
+        let mut value = None;
         let mut lower = Row::BLANK;
         let text = match self {
             Mode::Normal => "",
@@ -409,16 +412,16 @@ impl Mode {
                 ALL_SEGMENTS
             }
             Mode::Info(_) => {
-                value = decimal_row(ctx.node_id as u32);
+                value = Some(ctx.node_id as u32);
                 lower = baud(ctx.baud);
                 Item::Id.label()
             }
             Mode::List(item) => {
-                lower = match item {
-                    Item::Id => decimal_row(ctx.node_id as u32),
-                    Item::Kbaud => baud(ctx.baud),
-                    Item::Code => Row::BLANK,
-                };
+                match item {
+                    Item::Id => lower = decimal_row(ctx.node_id as u32),
+                    Item::Kbaud => lower = baud(ctx.baud),
+                    Item::Code => {}
+                }
                 item.label()
             }
             Mode::EditId(e) => {
@@ -441,14 +444,19 @@ impl Mode {
                 } else {
                     let i = n as usize % diag.len();
                     let e = diag[i];
-                    value = decimal_row(e.count as u32);
+                    value = Some(e.count as u32);
                     lower = hex_row(e.code);
                     &"12345678"[i..i + 1]
                 }
             }
             Mode::AutoId(_) => "New ID",
         };
-        [overlay(Row::left(text), value), lower]
+        let mut upper = Row::left(text);
+        if let Some(v) = value {
+            // What `overlay` of its `decimal_row` does: the digits replace the cells they take.
+            put_digits(&mut upper, v, 10, 1, 0);
+        }
+        [upper, lower]
     }
 
     /// Whether the mode's rows change with the blink clock.

@@ -9,7 +9,7 @@ use super::leds::{self, Backlight, Bicolour, Leds, LightConfig};
 use super::menu::{DiagEntry, Effect, MenuContext, Mode, POWER_UP_MS};
 use super::screen::{next_blink_edge, set_point_blinks, set_point_row, Row, RowStyle, Screen};
 use super::setpoint::{SetPoints, Which};
-use super::words::StatusWord;
+use super::words::{cw, StatusWord};
 
 /// The parameters the panel reads, each from its object.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -64,7 +64,7 @@ impl Params {
     fn style(&self, sps: &SetPoints) -> RowStyle {
         RowStyle {
             decimals: self.decimals,
-            extended: sps.control.extended_range,
+            extended: sps.control & cw::EXTENDED_RANGE != 0,
             steady_unacknowledged: self.steady_unacknowledged,
         }
     }

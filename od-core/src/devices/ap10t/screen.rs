@@ -139,20 +139,30 @@ pub fn number(value: i32, decimals: u8) -> Option<Row> {
 /// when it did not, the row holds the six lowest digits without the sign.
 fn digits_row(value: i32, decimals: u8) -> (Row, bool) {
     let decimals = decimals.min(4) as usize;
-    let mut n = value.unsigned_abs();
     let mut row = Row::BLANK;
-    // Cells from the right: every digit, at least one before the point.
-    let mut i = 0;
-    while i < CELLS && (n > 0 || i <= decimals) {
-        row.0[CELLS - 1 - i] = Cell { ch: b'0' + (n % 10) as u8, dp: decimals > 0 && i == decimals };
-        n /= 10;
-        i += 1;
-    }
-    let fits = n == 0 && (value >= 0 || i < CELLS);
+    // Every digit, at least one before the point.
+    let (rest, i) = put_digits(&mut row, value.unsigned_abs(), 10, decimals + 1, decimals);
+    let fits = rest == 0 && (value >= 0 || i < CELLS);
     if value < 0 && fits {
         row.0[CELLS - 1 - i].ch = b'-';
     }
     (row, fits)
+}
+
+/// The one number formatter: the digits of `n` in `radix` (10 or 16, upper-case hex) into
+/// `row` from the right, at least `min` of them (leading zeros) and as many as `n` needs or fit,
+/// the point lit after the digit `point` places from the right (none for 0). Returns what is
+/// left of `n` (0 if every digit fitted) and the number of cells used.
+pub(crate) fn put_digits(row: &mut Row, mut n: u32, radix: u32, min: usize, point: usize) -> (u32, usize) {
+    let mut i = 0;
+    while i < CELLS && (n > 0 || i < min) {
+        let d = (n % radix) as u8;
+        let ch = if d < 10 { b'0' + d } else { b'A' + d - 10 };
+        row.0[CELLS - 1 - i] = Cell { ch, dp: point > 0 && i == point };
+        n /= radix;
+        i += 1;
+    }
+    (n, i)
 }
 
 /// "FULLL" (manual 3.2).
@@ -190,28 +200,30 @@ pub struct RowStyle {
 
 /// What a set point's row shows at `now`.
 pub fn set_point_row(sp: &SetPoint, style: RowStyle, now: Instant) -> Row {
-    if !sp.valid {
-        return no_set_point();
-    }
-    if !sp.acknowledged && !style.steady_unacknowledged && !blink_on(now) {
-        return Row::BLANK;
-    }
-    if sp.ascii {
+    let lit = blink_on(now);
+    // Every text row ("---", dark, "FULLL") through one `Row::right`.
+    let text = if !sp.valid {
+        "---"
+    } else if !sp.acknowledged && !style.steady_unacknowledged && !lit {
+        ""
+    } else if sp.ascii {
         return ascii(&sp.bytes);
-    }
-    let v = sp.number();
-    let extended = style.extended && sp.acknowledged && (EXTENDED_MIN..STANDARD_MIN).contains(&v);
-    if !extended && !(STANDARD_MIN..=MAX).contains(&v) {
-        return full();
-    }
-    // Every value of the standard range fits; one of the extended range that needs all six
-    // cells for its digits alternates its leftmost cell between '-' (lit half of the blink
-    // period) and the highest digit.
-    let (mut row, fits) = digits_row(v, style.decimals);
-    if !fits && blink_on(now) {
-        row.0[0].ch = b'-';
-    }
-    row
+    } else {
+        let v = sp.number();
+        let extended = style.extended && sp.acknowledged && (EXTENDED_MIN..STANDARD_MIN).contains(&v);
+        if extended || (STANDARD_MIN..=MAX).contains(&v) {
+            // Every value of the standard range fits; one of the extended range that needs all
+            // six cells for its digits alternates its leftmost cell between '-' (lit half of
+            // the blink period) and the highest digit.
+            let (mut row, fits) = digits_row(v, style.decimals);
+            if !fits && lit {
+                row.0[0].ch = b'-';
+            }
+            return row;
+        }
+        "FULLL"
+    };
+    Row::right(text)
 }
 
 /// Whether a set point's row changes with time (flashing or alternating).

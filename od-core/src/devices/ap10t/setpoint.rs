@@ -10,7 +10,7 @@
 //! acknowledged.
 
 use super::keys::{Key, KeySet};
-use super::words::{sw, ControlWord, StatusWord};
+use super::words::{cw, sw, ControlWord, StatusWord};
 
 /// Which set point: 1 (upper row, RPDO1/TPDO1) or 2 (lower row, RPDO2/TPDO2).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -64,17 +64,15 @@ impl SetPoint {
 pub struct SetPoints {
     /// Set point 1 and set point 2.
     pub sp: [SetPoint; 2],
-    /// The control word of the last RPDO (5F0Ch).
-    pub control: ControlWord,
+    /// The control word of the last RPDO (5F0Ch), as its 16 bits (see [`ControlWord`]; kept
+    /// raw, each user tests the bits it needs).
+    pub control: u16,
 }
 
 impl SetPoints {
     /// Nothing received: both invalid, control word 0.
     pub const fn new() -> SetPoints {
-        SetPoints {
-            sp: [SetPoint { bytes: [0; 6], ascii: false, valid: false, acknowledged: false }; 2],
-            control: ControlWord::from_bits(0),
-        }
+        SetPoints { sp: [SetPoint { bytes: [0; 6], ascii: false, valid: false, acknowledged: false }; 2], control: 0 }
     }
 
     /// One set point.
@@ -84,7 +82,8 @@ impl SetPoints {
 
     /// Takes the 8 data bytes of RPDO1 (`Sp1`) or RPDO2 (`Sp2`).
     pub fn receive(&mut self, which: Which, data: &[u8; 8]) {
-        let control = ControlWord::from_le_bytes([data[6], data[7]]);
+        let w = u16::from_le_bytes([data[6], data[7]]);
+        let control = ControlWord::from_bits(w);
         let mut bytes = [0u8; 6];
         bytes.copy_from_slice(&data[..6]);
         let valid = [control.sp1_valid, control.sp2_valid];
@@ -100,7 +99,7 @@ impl SetPoints {
             sp.valid = valid[i];
             sp.acknowledged = sp.valid && (ack[i] || (sp.acknowledged && !changed));
         }
-        self.control = control;
+        self.control = w;
     }
 
     /// Whether a valid set point waits for its acknowledgement.
@@ -135,7 +134,7 @@ impl SetPoints {
             | put(s1.acknowledged, sw::SP1_ACK)
             | put(s2.valid, sw::SP2_VALID)
             | put(s2.acknowledged, sw::SP2_ACK)
-            | put(self.control.guarding, sw::GUARDING)
+            | put(self.control & cw::GUARDING != 0, sw::GUARDING)
             | put(held.contains(Key::Front), sw::FRONT_KEY)
             | put(held.contains(Key::Left), sw::LEFT_KEY)
             | put(held.contains(Key::Star), sw::STAR_KEY)
