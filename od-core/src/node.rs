@@ -149,6 +149,7 @@ impl<D: CanopenDevice> Node<D> {
         Node::power_on(device, loaded, 0xFF)
     }
 
+    #[inline(never)]
     fn power_on(device: D, loaded: &Loaded, fallback_node_id: u8) -> Node<D> {
         let (od, storage, node_id) =
             storage::power_on_as(device.table(), device.factory_node_id(), loaded, fallback_node_id);
