@@ -64,8 +64,7 @@ impl Heartbeat {
         if now < due {
             return;
         }
-        let message = ErrorControl { state: nmt.code(), toggle: false };
-        out.send(Frame::std(0x700 + node_id as u16, &message.emit()));
+        send_error_control(out, node_id, ErrorControl { state: nmt.code(), toggle: false });
         // Keep the period's phase; a shell that polled far too late restarts it instead of
         // sending a burst.
         let period = self.period();
@@ -88,6 +87,13 @@ impl Heartbeat {
         self.start(value as u16, now);
         Ok(())
     }
+}
+
+/// Queues the error-control message `message` on 700h + `node_id`: the heartbeat, the
+/// node-guarding answer and the boot-up message, built in one place.
+#[inline(never)]
+pub(crate) fn send_error_control(out: &mut Outbox, node_id: u8, message: ErrorControl) {
+    out.send(Frame::std(0x700 + node_id as u16, &message.emit()));
 }
 
 #[cfg(test)]

@@ -3,28 +3,25 @@
 
 pub use crate::wire::nmt::{NmtCommand, NmtRequest};
 
-/// NMT state of a node.
+/// NMT state of a node. Each state is stored as its code in heartbeat and node-guarding
+/// frames ([`NmtState::code`] is a plain read).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[repr(u8)]
 pub enum NmtState {
     /// Initialisation: the node takes no part in bus traffic until its boot-up is sent.
-    Initialising,
+    Initialising = 0x00,
     /// Pre-operational: SDO, EMCY, heartbeat and guarding; no PDO.
-    PreOperational,
+    PreOperational = 0x7F,
     /// Operational: everything.
-    Operational,
+    Operational = 0x05,
     /// Stopped: only NMT, heartbeat and node guarding (and LSS).
-    Stopped,
+    Stopped = 0x04,
 }
 
 impl NmtState {
     /// The state code in heartbeat and node-guarding frames (0, 7Fh, 05h, 04h).
     pub const fn code(self) -> u8 {
-        match self {
-            NmtState::Initialising => 0x00,
-            NmtState::PreOperational => 0x7F,
-            NmtState::Operational => 0x05,
-            NmtState::Stopped => 0x04,
-        }
+        self as u8
     }
 
     /// SDO transfers are served (not in STOPPED).

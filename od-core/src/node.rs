@@ -17,7 +17,7 @@ use crate::device::pending_bitrate;
 use crate::emcy;
 use crate::frame::{CanId, Frame, RxFilter, RxId};
 use crate::guarding::Guarding;
-use crate::heartbeat::Heartbeat;
+use crate::heartbeat::{send_error_control, Heartbeat};
 use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
 use crate::od::{CoreHook, Group, Hook};
@@ -354,9 +354,8 @@ impl<D: CanopenDevice> Node<D> {
                 let Node { ctx, device, sdo, nmt, heartbeat, guarding, pdo, lss, .. } = self;
                 let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
                 let mut access = Access { ctx, device, services: &mut services };
-                if let Some(answer) = sdo.on_request(frame.payload(), now, &mut access) {
-                    ctx.out.send(Frame::std(0x580 + id as u16, &answer));
-                }
+                let answer = sdo.on_request(frame.payload(), now, &mut access);
+                self.send_sdo(answer);
             }
         } else if key == 0x700 + id {
             if frame.rtr {
@@ -551,6 +550,7 @@ impl<D: CanopenDevice> Node<D> {
         self.send_sdo(response);
     }
 
+    #[inline(never)]
     fn send_sdo(&mut self, response: Option<[u8; 8]>) {
         if let Some(data) = response {
             self.ctx.out.send(Frame::std(0x580 + self.ctx.node_id as u16, &data));
@@ -642,7 +642,7 @@ impl<D: CanopenDevice> Node<D> {
     #[inline(never)]
     fn boot_up(&mut self, now: Instant) {
         let boot_up = ErrorControl { state: nmt_wire::BOOT_UP, toggle: false };
-        self.ctx.out.send(Frame::std(0x700 + self.ctx.node_id as u16, &boot_up.emit()));
+        send_error_control(&mut self.ctx.out, self.ctx.node_id, boot_up);
         self.set_nmt(NmtState::PreOperational);
         self.heartbeat.reset(&self.ctx.od, now);
         self.guarding.reset(&self.ctx.od);
