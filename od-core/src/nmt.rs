@@ -26,16 +26,39 @@ impl NmtState {
 
     /// SDO transfers are served (not in STOPPED).
     pub const fn sdo_allowed(self) -> bool {
-        matches!(self, NmtState::PreOperational | NmtState::Operational)
+        // PRE-OPERATIONAL (7Fh) and OPERATIONAL (05h) are the odd codes.
+        self as u8 & 1 != 0
     }
 
     /// EMCY frames may be sent (not in STOPPED, as every manual says).
     pub const fn emcy_allowed(self) -> bool {
-        matches!(self, NmtState::PreOperational | NmtState::Operational)
+        // PRE-OPERATIONAL (7Fh) and OPERATIONAL (05h) are the odd codes.
+        self as u8 & 1 != 0
     }
 
     /// PDOs are sent and received (OPERATIONAL only).
     pub const fn pdo_allowed(self) -> bool {
         matches!(self, NmtState::Operational)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The codes the heartbeat and guarding send, and what each state allows (CiA 301).
+    #[test]
+    fn codes_and_permissions() {
+        use NmtState::*;
+        let table = [
+            (Initialising, 0x00, false, false),
+            (PreOperational, 0x7F, true, false),
+            (Operational, 0x05, true, true),
+            (Stopped, 0x04, false, false),
+        ];
+        for (state, code, sdo, pdo) in table {
+            assert_eq!(state.code(), code, "{state:?}");
+            assert_eq!((state.sdo_allowed(), state.emcy_allowed(), state.pdo_allowed()), (sdo, sdo, pdo), "{state:?}");
+        }
     }
 }

@@ -550,7 +550,7 @@ impl<D: CanopenDevice> Node<D> {
         self.send_sdo(response);
     }
 
-    #[inline(never)]
+    #[inline]
     fn send_sdo(&mut self, response: Option<[u8; 8]>) {
         if let Some(data) = response {
             self.ctx.out.send(Frame::std(0x580 + self.ctx.node_id as u16, &data));
