@@ -40,12 +40,12 @@ impl Instant {
     }
 
     /// This instant plus `ms` milliseconds.
-    pub fn add_millis(self, ms: u64) -> Instant {
+    pub const fn add_millis(self, ms: u64) -> Instant {
         Instant(sat_add(self.0, ms * 1000))
     }
 
     /// This instant plus `us` microseconds.
-    pub fn add_micros(self, us: u64) -> Instant {
+    pub const fn add_micros(self, us: u64) -> Instant {
         Instant(sat_add(self.0, us))
     }
 
@@ -55,7 +55,7 @@ impl Instant {
     }
 
     /// This instant plus `d` (saturating at the end of time).
-    pub fn add(self, d: Duration) -> Instant {
+    pub const fn add(self, d: Duration) -> Instant {
         Instant(sat_add(self.0, d.0))
     }
 
@@ -67,7 +67,7 @@ impl Instant {
 
 /// `a + b`, saturating: one out-of-line copy of the 64-bit carry test for every timer.
 #[inline(never)]
-fn sat_add(a: u64, b: u64) -> u64 {
+const fn sat_add(a: u64, b: u64) -> u64 {
     a.saturating_add(b)
 }
 
