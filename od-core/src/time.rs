@@ -41,7 +41,7 @@ impl Instant {
 
     /// This instant plus `ms` milliseconds.
     pub const fn add_millis(self, ms: u64) -> Instant {
-        Instant(sat_add(self.0, ms * 1000))
+        Instant(self.0.saturating_add(ms * 1000))
     }
 
     /// This instant plus `us` microseconds.
