@@ -12,7 +12,7 @@
 
 use crate::abort::Abort;
 use crate::context::Outbox;
-use crate::frame::Frame;
+use crate::heartbeat::send_error_control;
 use crate::nmt::NmtState;
 use crate::od::Od;
 use crate::time::Instant;
@@ -83,8 +83,7 @@ impl Guarding {
         if heartbeat_active {
             return false;
         }
-        let message = ErrorControl { state: nmt.code(), toggle: self.toggle };
-        out.send(Frame::std(0x700 + node_id as u16, &message.emit()));
+        send_error_control(out, node_id, ErrorControl { state: nmt.code(), toggle: self.toggle });
         self.toggle = !self.toggle;
         let ended = core::mem::replace(&mut self.event, false);
         self.restart(now);

@@ -56,12 +56,13 @@ pub enum LssEvent {
     BootUp,
 }
 
-/// An activate bit timing under way: the rate switches at `adopt_at`, the boot-up goes out
-/// at `boot_at`; the node sends nothing meanwhile.
+/// An activate bit timing under way: the rate switches one `delay` after the request, the
+/// boot-up goes out one `delay` later; the node sends nothing meanwhile.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 struct Switch {
-    adopt_at: Instant,
-    boot_at: Instant,
+    /// The end of the delay under way: the rate's switch, then (once `adopted`) the boot-up.
+    due: Instant,
+    delay: Duration,
     adopted: bool,
     /// An unconfigured node with a pending node-ID was switched to LSS waiting meanwhile: it
     /// activates the node-ID at the end of the switch instead of at once.
@@ -279,12 +280,7 @@ impl Lss {
             // Not while a store waits for the shell: its answer would fall into the silence.
             cs::ACTIVATE_BIT_TIMING if configuration && !ctx.storage.saving() => {
                 let delay = Duration::from_millis(u16::from_le_bytes([d[1], d[2]]) as u64);
-                self.switch = Some(Switch {
-                    adopt_at: now + delay,
-                    boot_at: now + delay.times(2),
-                    adopted: false,
-                    activate: false,
-                });
+                self.switch = Some(Switch { due: now + delay, delay, adopted: false, activate: false });
                 // The node leaves the bus until its boot-up on the new rate: no service sends.
                 return LssEvent::Switching;
             }
@@ -380,8 +376,9 @@ impl Lss {
         let Some(switch) = self.switch.as_mut() else {
             return LssEvent::None;
         };
-        if !switch.adopted && now >= switch.adopt_at {
+        if !switch.adopted && now >= switch.due {
             switch.adopted = true;
+            switch.due += switch.delay;
             self.configured_rate = None;
             let code = ctx.od.get(self.pending_bitrate);
             if let Some(rate) = rate_of(self.codes, code) {
@@ -390,7 +387,7 @@ impl Lss {
             }
         }
         match self.switch {
-            Some(s) if s.adopted && now >= s.boot_at => {
+            Some(s) if s.adopted && now >= s.due => {
                 self.switch = None;
                 if s.activate {
                     LssEvent::ResetCommunication
@@ -420,7 +417,7 @@ impl Lss {
 
     /// When the next LSS delay ends.
     pub fn next_deadline(&self) -> Option<Instant> {
-        self.switch.map(|s| if s.adopted { s.boot_at } else { s.adopt_at })
+        self.switch.map(|s| s.due)
     }
 
     /// After an NMT reset (or the one LSS asked for): the slave starts again in LSS waiting
@@ -592,12 +589,7 @@ mod tests {
             // Not while a store waits for the shell: its answer would fall into the silence.
             (LssState::Configuration, Request::ActivateBitTiming { delay_ms }) if !ctx.storage.saving() => {
                 let delay = Duration::from_millis(delay_ms as u64);
-                lss.switch = Some(Switch {
-                    adopt_at: now + delay,
-                    boot_at: now + delay.times(2),
-                    adopted: false,
-                    activate: false,
-                });
+                lss.switch = Some(Switch { due: now + delay, delay, adopted: false, activate: false });
                 // The node leaves the bus until its boot-up on the new rate: no service sends.
                 return LssEvent::Switching;
             }

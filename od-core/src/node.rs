@@ -17,7 +17,7 @@ use crate::device::pending_bitrate;
 use crate::emcy;
 use crate::frame::{CanId, Frame, RxFilter, RxId};
 use crate::guarding::Guarding;
-use crate::heartbeat::Heartbeat;
+use crate::heartbeat::{send_error_control, Heartbeat};
 use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
 use crate::od::{CoreHook, Group, Hook};
@@ -149,6 +149,7 @@ impl<D: CanopenDevice> Node<D> {
         Node::power_on(device, loaded, 0xFF)
     }
 
+    #[inline(never)]
     fn power_on(device: D, loaded: &Loaded, fallback_node_id: u8) -> Node<D> {
         let (od, storage, node_id) =
             storage::power_on_as(device.table(), device.factory_node_id(), loaded, fallback_node_id);
@@ -356,9 +357,8 @@ impl<D: CanopenDevice> Node<D> {
                 let expedited_only = device.sdo_expedited_only();
                 let mut services = CanopenServices { nmt: *nmt, heartbeat, guarding, pdo, lss };
                 let mut access = Access { ctx, device, services: &mut services };
-                if let Some(answer) = sdo.on_request_as(expedited_only, frame.payload(), now, &mut access) {
-                    ctx.out.send(Frame::std(0x580 + id as u16, &answer));
-                }
+                let answer = sdo.on_request_as(expedited_only, frame.payload(), now, &mut access);
+                self.send_sdo(answer);
             }
         } else if key == 0x700 + id {
             if frame.rtr {
@@ -556,6 +556,7 @@ impl<D: CanopenDevice> Node<D> {
         self.send_sdo(response);
     }
 
+    #[inline]
     fn send_sdo(&mut self, response: Option<[u8; 8]>) {
         if let Some(data) = response {
             self.ctx.out.send(Frame::std(0x580 + self.ctx.node_id as u16, &data));
@@ -647,7 +648,7 @@ impl<D: CanopenDevice> Node<D> {
     #[inline(never)]
     fn boot_up(&mut self, now: Instant) {
         let boot_up = ErrorControl { state: nmt_wire::BOOT_UP, toggle: false };
-        self.ctx.out.send(Frame::std(0x700 + self.ctx.node_id as u16, &boot_up.emit()));
+        send_error_control(&mut self.ctx.out, self.ctx.node_id, boot_up);
         self.set_nmt(NmtState::PreOperational);
         self.heartbeat.reset(&self.ctx.od, now);
         self.guarding.reset(&self.ctx.od);

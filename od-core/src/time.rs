@@ -46,7 +46,7 @@ impl Instant {
 
     /// This instant plus `us` microseconds.
     pub const fn add_micros(self, us: u64) -> Instant {
-        Instant(self.0.saturating_add(us))
+        Instant(sat_add(self.0, us))
     }
 
     /// Microseconds from `earlier` to `self`, zero if `earlier` is later.
@@ -56,13 +56,19 @@ impl Instant {
 
     /// This instant plus `d` (saturating at the end of time).
     pub const fn add(self, d: Duration) -> Instant {
-        Instant(self.0.saturating_add(d.0))
+        Instant(sat_add(self.0, d.0))
     }
 
     /// The span from `earlier` to `self`, zero if `earlier` is later.
     pub const fn since(self, earlier: Instant) -> Duration {
         Duration(self.0.saturating_sub(earlier.0))
     }
+}
+
+/// `a + b`, saturating: one out-of-line copy of the 64-bit carry test for every timer.
+#[inline(never)]
+const fn sat_add(a: u64, b: u64) -> u64 {
+    a.saturating_add(b)
 }
 
 /// A span of time in microseconds: a timer period, a delay, a timeout. Unsigned; arithmetic
@@ -134,7 +140,7 @@ impl Sub<Instant> for Instant {
 impl Add for Duration {
     type Output = Duration;
     fn add(self, d: Duration) -> Duration {
-        Duration(self.0.saturating_add(d.0))
+        Duration(sat_add(self.0, d.0))
     }
 }
 
