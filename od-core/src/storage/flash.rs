@@ -212,7 +212,9 @@ impl<F: NorFlash> ParamFlash<F> {
     pub fn load(&mut self) -> Loaded {
         let blank = self.scan();
         if self.valid {
-            Loaded::Image(self.image.clone())
+            let mut image = Image::new();
+            image.assign(&self.image);
+            Loaded::Image(image)
         } else if blank {
             Loaded::Blank
         } else {

@@ -456,10 +456,8 @@ pub fn identity(table: &[Entry]) -> u32 {
             [lo, hi, e.sub] == *k
         }) {
             crc.update(k);
-            match e.string_value() {
-                Some(s) => crc.update(s),
-                None => crc.update(&e.default_value(0).to_le_bytes()),
-            }
+            let value = e.default_value(0).to_le_bytes();
+            crc.update(e.string_value().unwrap_or(&value));
         }
     }
     crc.finish()

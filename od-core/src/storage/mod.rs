@@ -85,8 +85,6 @@ fn is_log(e: &Entry) -> bool {
 
 /// The bits of the user groups (Comm, App, Manuf) in a [`GroupMask`].
 const USER_GROUPS: u8 = GroupMask::ALL.0;
-/// The bits of a [`GroupMask`] that select entries by their hook.
-const BY_HOOK: u8 = GroupMask::LSS.0 | GroupMask::NODE_ID.0 | GroupMask::BITRATE.0;
 
 /// Does a store of `mask` write the entry?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
@@ -98,11 +96,6 @@ fn selected(e: &Entry, mask: GroupMask) -> bool {
         _ => 0,
     };
     (e.group.bit() & USER_GROUPS | by_hook) & mask.0 != 0
-}
-
-/// The user-stored entries as (slot in [`Storage`], position in the table, entry).
-fn user_entries(table: &'static [Entry]) -> impl Iterator<Item = (usize, usize, &'static Entry)> {
-    table.iter().enumerate().filter(|(_, e)| is_user(e)).enumerate().map(|(k, (pos, e))| (k, pos, e))
 }
 
 /// The node's view of its non-volatile parameters.
@@ -196,13 +189,6 @@ pub(crate) fn power_on_as(
         .map(|e| image.and_then(|i| i.value_for(e)).unwrap_or(e.default_value_in(0, factory.unwrap_or(0))) as u8)
         .unwrap_or(fallback);
     let mut od = Od::with_factory_node_id(table, node_id, factory);
-    if let Some(image) = image {
-        for (pos, e) in table.iter().enumerate() {
-            if let Some(v) = image.value_for(e) {
-                od.set(pos, v);
-            }
-        }
-    }
     let mut storage = Storage {
         slots: [0; MAX_STORED],
         count: 0,
@@ -211,12 +197,19 @@ pub(crate) fn power_on_as(
         restore: GroupMask::default(),
         captured_id: None,
         saving: None,
-        fault: *loaded == Loaded::Invalid,
+        fault: matches!(loaded, Loaded::Invalid),
     };
-    for (k, pos, _) in user_entries(table) {
-        // MAX_ENTRIES (160) positions fit a byte; slot MAX_STORED panics.
-        storage.slots[k] = pos as u8;
-        storage.count = k + 1;
+    // One walk of the table: the stored values into the dictionary, the user-stored entries'
+    // positions into the slots.
+    for (pos, e) in table.iter().enumerate() {
+        if let Some(v) = image.and_then(|i| i.value_for(e)) {
+            od.set(pos, v);
+        }
+        if is_user(e) {
+            // MAX_ENTRIES (160) positions fit a byte; slot MAX_STORED panics.
+            storage.slots[storage.count] = pos as u8;
+            storage.count += 1;
+        }
     }
     storage.capture(&od, node_id, None);
     (od, storage, node_id)
@@ -405,11 +398,16 @@ pub(crate) fn merge_into(
                 note(log, Record::removal(r.index, r.sub));
                 changed += 1;
             }
-            // The value the image keeps for the entry, if any.
-            let take = e.group.bit() & mask.0 & USER_GROUPS != 0 || (mask.0 & BY_HOOK != 0 && selected(e, mask));
-            let (value, keep) = match stored {
-                Some(r) if !take && (e.group != Group::Factory || r.fits(e)) => (r.value, r.fits(e)),
-                _ if take || e.group == Group::Factory => {
+            // The value the image keeps for the entry, if any: a selected entry's current value;
+            // else the stored one, kept if it fits (factory data that does not fit is replaced
+            // by the current value: factory data is only ever added).
+            let take = selected(e, mask);
+            let old = stored.filter(|_| !take);
+            let fits = old.is_some_and(|r| r.fits(e));
+            let factory = e.group == Group::Factory;
+            let (value, keep) = match old {
+                Some(r) if fits || !factory => (r.value, fits),
+                _ if take || factory => {
                     let value = od.get(pos);
                     (value, value != od.default_of(e, node_id))
                 }
