@@ -107,8 +107,10 @@ pub struct Storage {
     count: usize,
     /// What the flash holds for each user-stored entry: the value an NMT reset loads.
     stored: [u32; MAX_STORED],
-    /// Bit k: entry k is stored at its default, so it follows the node-ID (COB-IDs "+ node-ID").
-    at_default: u64,
+    /// Bit k % 32 of word k / 32: entry k is stored at its default, so it follows the node-ID
+    /// (COB-IDs "+ node-ID"). Words of 32 bits: a 64-bit shift by a variable is long code on
+    /// the Cortex-M3.
+    at_default: [u32; MAX_STORED / 32],
     /// Groups a 1011h "load" marked: the next reset loads their factory defaults.
     restore: GroupMask,
     /// The node-ID every entry's `at_default` bit was computed for (`None`: not all the same).
@@ -153,11 +155,11 @@ impl Storage {
                 continue;
             }
             self.stored[k] = value;
-            let bit = 1u64 << k;
+            let (word, bit) = (&mut self.at_default[k / 32], 1 << (k % 32));
             if value == od.default_of(e, node_id) {
-                self.at_default |= bit;
+                *word |= bit;
             } else {
-                self.at_default &= !bit;
+                *word &= !bit;
             }
         }
         self.captured_id = if all || known { Some(node_id) } else { None };
@@ -193,7 +195,7 @@ pub(crate) fn power_on_as(
         slots: [0; MAX_STORED],
         count: 0,
         stored: [0; MAX_STORED],
-        at_default: 0,
+        at_default: [0; MAX_STORED / 32],
         restore: GroupMask::default(),
         captured_id: None,
         saving: None,
@@ -290,7 +292,7 @@ impl Storage {
                 od.default_of(e, id)
             } else if !groups.contains(e.group) || is_pending(e) || is_log(e) {
                 continue;
-            } else if self.at_default & (1 << k) != 0 {
+            } else if self.at_default[k / 32] & 1 << (k % 32) != 0 {
                 od.default_of(e, id)
             } else {
                 self.stored[k]
