@@ -27,7 +27,7 @@ use embedded_storage::nor_flash::NorFlash;
 
 use super::crc::Crc32;
 use super::image::{self, DecodeError, Image, Record, Slot, COMMIT, COMMIT_SIZE, HEADER_SIZE, UNIT};
-use super::{merge_into, Loaded, Log, Parameters, Storable};
+use super::{merge_into, Loaded, Log, Parameters, Storable, LOG_MAX};
 use crate::od::GroupMask;
 
 /// Where the parameter pages are: `pages` erase pages from byte `offset` of the flash the
@@ -249,15 +249,14 @@ impl<F: NorFlash> ParamFlash<F> {
             Some(s) if core::ptr::eq(s.table, od.table()) => s,
             other => other.insert(Storable::of(od.table())),
         };
-        let count = merge_into(old, &mut image, &mut log, od, storable, params.node_id(), mask)
-            .map_err(|_| SaveError::TooLarge)?;
-        if self.valid && count == 0 {
+        merge_into(old, &mut image, &mut log, od, storable, params.node_id(), mask).map_err(|_| SaveError::TooLarge)?;
+        if self.valid && log.is_empty() {
             return Ok(());
         }
         let result = if self.valid
             && self.end != 0
-            && count == log.len()
-            && self.end as usize + (count + 1) * UNIT <= F::ERASE_SIZE
+            && log.len() <= LOG_MAX
+            && self.end as usize + (log.len() + 1) * UNIT <= F::ERASE_SIZE
         {
             self.append(&log, &image)
         } else {

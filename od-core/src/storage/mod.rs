@@ -331,8 +331,9 @@ fn key(index: u16, sub: u8) -> u32 {
 
 /// Most records one log entry holds: a save that changes more starts a new page.
 pub(crate) const LOG_MAX: usize = 32;
-/// The records of one log entry.
-pub(crate) type Log = heapless::Vec<Record, LOG_MAX>;
+/// The records of one log entry, and room for one more: a log holding more than [`LOG_MAX`]
+/// says that the save changed too many for one entry (no count kept beside it).
+pub(crate) type Log = heapless::Vec<Record, { LOG_MAX + 1 }>;
 
 /// Adds `r` to `log` if it has room (one call, rather than the push at each place).
 #[inline(never)]
@@ -364,9 +365,9 @@ impl Storable {
 }
 
 /// [`merge`] of the records `olds` into the empty `new`: one pass over the storable entries
-/// and the old records side by side (both sorted by index and sub-index). Returns how many keys changed
-/// (records added, changed or dropped): the records a log entry of this save holds, which go
-/// to `log` as far as it has room (a removal for a record dropped).
+/// and the old records side by side (both sorted by index and sub-index). The keys that changed
+/// (records added, changed or dropped) go to `log` as far as it has room (a removal for a
+/// record dropped): the records a log entry of this save holds, unless the log is full.
 pub(crate) fn merge_into(
     olds: &[Record],
     new: &mut Image,
@@ -375,9 +376,9 @@ pub(crate) fn merge_into(
     storable: &Storable,
     node_id: u8,
     mask: GroupMask,
-) -> Result<usize, image::Full> {
+) -> Result<(), image::Full> {
     let table = od.table();
-    let (mut i, mut changed) = (0, 0);
+    let mut i = 0;
     for (w, &word) in storable.bits.iter().enumerate() {
         let mut bits = word;
         while bits != 0 {
@@ -398,7 +399,6 @@ pub(crate) fn merge_into(
                 }
                 // A record of a key the dictionary does not declare, or does not store: dropped.
                 note(log, Record::removal(r.index, r.sub));
-                changed += 1;
             }
             // The value the image keeps for the entry, if any: a selected entry's current value;
             // else the stored one, kept if it fits (factory data that does not fit is replaced
@@ -421,7 +421,6 @@ pub(crate) fn merge_into(
                 _ => {
                     let record = if keep { Record::of(e, value) } else { Record::removal(e.index, e.sub) };
                     note(log, record);
-                    changed += 1;
                     if keep {
                         new.push(record)?;
                     }
@@ -432,7 +431,7 @@ pub(crate) fn merge_into(
     for r in &olds[i..] {
         note(log, Record::removal(r.index, r.sub));
     }
-    Ok(changed + olds.len() - i)
+    Ok(())
 }
 
 #[cfg(test)]
