@@ -120,7 +120,7 @@ impl<F: NorFlash> ParamFlash<F> {
     fn decode(&mut self, n: u32, records: bool) -> Result<Slot, DecodeError> {
         let base = self.page(n);
         let (flash, out) = (&mut self.flash, records.then_some(&mut self.image));
-        Image::decode_slot(|at, buf| flash.read(base + at as u32, buf).is_ok(), F::ERASE_SIZE, self.identity, out)
+        Image::decode_slot(|at, buf| read(flash, base + at as u32, buf), F::ERASE_SIZE, self.identity, out)
     }
 
     /// Reads the ring: the newest page whose header checks, and its image with the log
@@ -169,7 +169,10 @@ impl<F: NorFlash> ParamFlash<F> {
         let (mut start, mut at, mut tail) = (next, next, false);
         let mut crc = self.log_crc;
         while at + UNIT as u32 <= size {
-            let Some(unit) = read_unit(&mut self.flash, base + at) else { return Ok(()) };
+            let mut unit = [0u8; UNIT];
+            if !read(&mut self.flash, base + at, &mut unit) {
+                return Ok(());
+            }
             at += UNIT as u32;
             if tail || unit == ERASED {
                 if unit != ERASED {
@@ -191,7 +194,11 @@ impl<F: NorFlash> ParamFlash<F> {
             // Removals first: the image never holds more records than before or after.
             for removals in [true, false] {
                 for k in 0..count {
-                    let r = Record::decode(&read_unit(&mut self.flash, base + start + k * UNIT as u32).ok_or(())?);
+                    let mut unit = [0u8; UNIT];
+                    if !read(&mut self.flash, base + start + k * UNIT as u32, &mut unit) {
+                        return Err(());
+                    }
+                    let r = Record::decode(&unit);
                     if r.is_removal() == removals {
                         self.image.update(r, removals).map_err(|_| ())?;
                     }
@@ -363,8 +370,9 @@ impl<F: NorFlash> ParamFlash<F> {
     }
 }
 
-/// The unit at `at`, if it can be read.
-fn read_unit<F: NorFlash>(flash: &mut F, at: u32) -> Option<[u8; UNIT]> {
-    let mut unit = [0u8; UNIT];
-    flash.read(at, &mut unit).ok().map(|()| unit)
+/// Reads `buf` from `at`; false if the flash could not. (One routine for every read of a
+/// page, the buffer the caller's.)
+#[inline(never)]
+fn read<F: NorFlash>(flash: &mut F, at: u32, buf: &mut [u8]) -> bool {
+    flash.read(at, buf).is_ok()
 }
