@@ -187,8 +187,8 @@ impl<F: NorFlash> ParamFlash<F> {
                 continue;
             }
             let count = unit[2] as u32;
-            crc.update(&unit[..4]);
-            if count == 0 || (count + 1) * UNIT as u32 != at - start || crc.finish().to_le_bytes() != unit[4..] {
+            let sum = u32::from_le_bytes([unit[4], unit[5], unit[6], unit[7]]);
+            if count == 0 || (count + 1) * UNIT as u32 != at - start || crc.digest(&unit[..4]).finish() != sum {
                 return Ok(());
             }
             // Removals first: the image never holds more records than before or after.
