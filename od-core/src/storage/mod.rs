@@ -355,9 +355,9 @@ impl Storable {
     /// checks).
     pub(crate) fn of(table: &'static [Entry]) -> Storable {
         let mut bits = [0u32; crate::od::MAX_ENTRIES.div_ceil(32)];
-        for (pos, e) in table.iter().enumerate().take(crate::od::MAX_ENTRIES) {
-            if is_stored(e) || is_pending(e) {
-                bits[pos / 32] |= 1 << (pos % 32);
+        for (pos, e) in table.iter().enumerate() {
+            if let (true, Some(word)) = (is_stored(e) || is_pending(e), bits.get_mut(pos / 32)) {
+                *word |= 1 << (pos % 32);
             }
         }
         Storable { table, bits }
