@@ -174,12 +174,12 @@ impl<F: NorFlash> ParamFlash<F> {
                 return Ok(());
             }
             at += UNIT as u32;
-            if tail || unit == ERASED {
-                if unit != ERASED {
-                    return Ok(());
-                }
+            if unit == ERASED {
                 tail = true;
                 continue;
+            }
+            if tail {
+                return Ok(());
             }
             next = at;
             if !image::is_log_commit(&unit) {

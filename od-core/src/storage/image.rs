@@ -258,7 +258,12 @@ impl Image {
         let found = self.find(rec.index, rec.sub);
         let v = &mut self.records;
         match found {
-            Ok(i) if !remove => v[i] = rec,
+            Ok(i) if !remove => {
+                // (Through get_mut: find's index is in range, no bounds-check panic.)
+                if let Some(slot) = v.get_mut(i) {
+                    *slot = rec;
+                }
+            }
             Ok(mut i) => {
                 // Moved up to the end, then dropped.
                 while i + 1 < v.len() {
