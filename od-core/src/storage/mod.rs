@@ -86,6 +86,12 @@ fn is_log(e: &Entry) -> bool {
 /// The bits of the user groups (Comm, App, Manuf) in a [`GroupMask`].
 const USER_GROUPS: u8 = GroupMask::ALL.0;
 
+/// The group's bit in a [`GroupMask`] if it is a user group (Comm, App, Manuf), else 0: the
+/// bit of group n is 1 << (n - 1), computed rather than looked up through [`Group::bit`].
+fn user_bit(g: Group) -> u8 {
+    ((1u32 << g as u32) >> 1) as u8 & USER_GROUPS
+}
+
 /// Does a store of `mask` write the entry?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
     // A user entry in a selected group: its group's bit is in the mask (Factory's and None's
@@ -95,7 +101,7 @@ fn selected(e: &Entry, mask: GroupMask) -> bool {
         Hook::Core(CoreHook::PendingBitrate) => GroupMask::LSS.0 | GroupMask::BITRATE.0,
         _ => 0,
     };
-    (e.group.bit() & USER_GROUPS | by_hook) & mask.0 != 0
+    (user_bit(e.group) | by_hook) & mask.0 != 0
 }
 
 /// The node's view of its non-volatile parameters.
