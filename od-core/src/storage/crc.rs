@@ -36,14 +36,22 @@ impl Crc32 {
     }
 
     /// Digests `bytes`.
+    #[inline]
     pub fn update(&mut self, bytes: &[u8]) {
+        *self = self.digest(bytes);
+    }
+
+    /// This CRC having digested `bytes`. (By value: the callers keep the state in a register.)
+    #[must_use]
+    #[inline(never)]
+    pub fn digest(self, bytes: &[u8]) -> Crc32 {
         let mut c = self.0;
         for &b in bytes {
             c ^= b as u32;
             c = (c >> 4) ^ TABLE[(c & 0xF) as usize];
             c = (c >> 4) ^ TABLE[(c & 0xF) as usize];
         }
-        self.0 = c;
+        Crc32(c)
     }
 
     /// The checksum of everything digested.

@@ -27,7 +27,7 @@ use embedded_storage::nor_flash::NorFlash;
 
 use super::crc::Crc32;
 use super::image::{self, DecodeError, Image, Record, Slot, COMMIT, COMMIT_SIZE, HEADER_SIZE, UNIT};
-use super::{merge_into, Loaded, Log, Parameters, Storable};
+use super::{merge_into, Loaded, Log, Parameters, Storable, LOG_MAX};
 use crate::od::GroupMask;
 
 /// Where the parameter pages are: `pages` erase pages from byte `offset` of the flash the
@@ -120,7 +120,7 @@ impl<F: NorFlash> ParamFlash<F> {
     fn decode(&mut self, n: u32, records: bool) -> Result<Slot, DecodeError> {
         let base = self.page(n);
         let (flash, out) = (&mut self.flash, records.then_some(&mut self.image));
-        Image::decode_slot(|at, buf| flash.read(base + at as u32, buf).is_ok(), F::ERASE_SIZE, self.identity, out)
+        Image::decode_slot(|at, buf| read(flash, base + at as u32, buf), F::ERASE_SIZE, self.identity, out)
     }
 
     /// Reads the ring: the newest page whose header checks, and its image with the log
@@ -169,14 +169,17 @@ impl<F: NorFlash> ParamFlash<F> {
         let (mut start, mut at, mut tail) = (next, next, false);
         let mut crc = self.log_crc;
         while at + UNIT as u32 <= size {
-            let Some(unit) = read_unit(&mut self.flash, base + at) else { return Ok(()) };
+            let mut unit = [0u8; UNIT];
+            if !read(&mut self.flash, base + at, &mut unit) {
+                return Ok(());
+            }
             at += UNIT as u32;
-            if tail || unit == ERASED {
-                if unit != ERASED {
-                    return Ok(());
-                }
+            if unit == ERASED {
                 tail = true;
                 continue;
+            }
+            if tail {
+                return Ok(());
             }
             next = at;
             if !image::is_log_commit(&unit) {
@@ -184,14 +187,18 @@ impl<F: NorFlash> ParamFlash<F> {
                 continue;
             }
             let count = unit[2] as u32;
-            crc.update(&unit[..4]);
-            if count == 0 || (count + 1) * UNIT as u32 != at - start || crc.finish().to_le_bytes() != unit[4..] {
+            let sum = u32::from_le_bytes([unit[4], unit[5], unit[6], unit[7]]);
+            if count == 0 || (count + 1) * UNIT as u32 != at - start || crc.digest(&unit[..4]).finish() != sum {
                 return Ok(());
             }
             // Removals first: the image never holds more records than before or after.
             for removals in [true, false] {
                 for k in 0..count {
-                    let r = Record::decode(&read_unit(&mut self.flash, base + start + k * UNIT as u32).ok_or(())?);
+                    let mut unit = [0u8; UNIT];
+                    if !read(&mut self.flash, base + start + k * UNIT as u32, &mut unit) {
+                        return Err(());
+                    }
+                    let r = Record::decode(&unit);
                     if r.is_removal() == removals {
                         self.image.update(r, removals).map_err(|_| ())?;
                     }
@@ -212,7 +219,9 @@ impl<F: NorFlash> ParamFlash<F> {
     pub fn load(&mut self) -> Loaded {
         let blank = self.scan();
         if self.valid {
-            Loaded::Image(self.image.clone())
+            let mut image = Image::new();
+            image.assign(&self.image);
+            Loaded::Image(image)
         } else if blank {
             Loaded::Blank
         } else {
@@ -247,15 +256,14 @@ impl<F: NorFlash> ParamFlash<F> {
             Some(s) if core::ptr::eq(s.table, od.table()) => s,
             other => other.insert(Storable::of(od.table())),
         };
-        let count = merge_into(old, &mut image, &mut log, od, storable, params.node_id(), mask)
-            .map_err(|_| SaveError::TooLarge)?;
-        if self.valid && count == 0 {
+        merge_into(old, &mut image, &mut log, od, storable, params.node_id(), mask).map_err(|_| SaveError::TooLarge)?;
+        if self.valid && log.is_empty() {
             return Ok(());
         }
         let result = if self.valid
             && self.end != 0
-            && count == log.len()
-            && self.end as usize + (count + 1) * UNIT <= F::ERASE_SIZE
+            && log.len() <= LOG_MAX
+            && self.end as usize + (log.len() + 1) * UNIT <= F::ERASE_SIZE
         {
             self.append(&log, &image)
         } else {
@@ -362,8 +370,9 @@ impl<F: NorFlash> ParamFlash<F> {
     }
 }
 
-/// The unit at `at`, if it can be read.
-fn read_unit<F: NorFlash>(flash: &mut F, at: u32) -> Option<[u8; UNIT]> {
-    let mut unit = [0u8; UNIT];
-    flash.read(at, &mut unit).ok().map(|()| unit)
+/// Reads `buf` from `at`; false if the flash could not. (One routine for every read of a
+/// page, the buffer the caller's.)
+#[inline(never)]
+fn read<F: NorFlash>(flash: &mut F, at: u32, buf: &mut [u8]) -> bool {
+    flash.read(at, buf).is_ok()
 }

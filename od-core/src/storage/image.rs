@@ -258,7 +258,12 @@ impl Image {
         let found = self.find(rec.index, rec.sub);
         let v = &mut self.records;
         match found {
-            Ok(i) if !remove => v[i] = rec,
+            Ok(i) if !remove => {
+                // (Through get_mut: find's index is in range, no bounds-check panic.)
+                if let Some(slot) = v.get_mut(i) {
+                    *slot = rec;
+                }
+            }
             Ok(mut i) => {
                 // Moved up to the end, then dropped.
                 while i + 1 < v.len() {
@@ -456,10 +461,8 @@ pub fn identity(table: &[Entry]) -> u32 {
             [lo, hi, e.sub] == *k
         }) {
             crc.update(k);
-            match e.string_value() {
-                Some(s) => crc.update(s),
-                None => crc.update(&e.default_value(0).to_le_bytes()),
-            }
+            let value = e.default_value(0).to_le_bytes();
+            crc.update(e.string_value().unwrap_or(&value));
         }
     }
     crc.finish()

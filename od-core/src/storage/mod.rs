@@ -85,8 +85,12 @@ fn is_log(e: &Entry) -> bool {
 
 /// The bits of the user groups (Comm, App, Manuf) in a [`GroupMask`].
 const USER_GROUPS: u8 = GroupMask::ALL.0;
-/// The bits of a [`GroupMask`] that select entries by their hook.
-const BY_HOOK: u8 = GroupMask::LSS.0 | GroupMask::NODE_ID.0 | GroupMask::BITRATE.0;
+
+/// The group's bit in a [`GroupMask`] if it is a user group (Comm, App, Manuf), else 0: the
+/// bit of group n is 1 << (n - 1), computed rather than looked up through [`Group::bit`].
+fn user_bit(g: Group) -> u8 {
+    ((1u32 << g as u32) >> 1) as u8 & USER_GROUPS
+}
 
 /// Does a store of `mask` write the entry?
 fn selected(e: &Entry, mask: GroupMask) -> bool {
@@ -97,12 +101,7 @@ fn selected(e: &Entry, mask: GroupMask) -> bool {
         Hook::Core(CoreHook::PendingBitrate) => GroupMask::LSS.0 | GroupMask::BITRATE.0,
         _ => 0,
     };
-    (e.group.bit() & USER_GROUPS | by_hook) & mask.0 != 0
-}
-
-/// The user-stored entries as (slot in [`Storage`], position in the table, entry).
-fn user_entries(table: &'static [Entry]) -> impl Iterator<Item = (usize, usize, &'static Entry)> {
-    table.iter().enumerate().filter(|(_, e)| is_user(e)).enumerate().map(|(k, (pos, e))| (k, pos, e))
+    (user_bit(e.group) | by_hook) & mask.0 != 0
 }
 
 /// The node's view of its non-volatile parameters.
@@ -114,8 +113,10 @@ pub struct Storage {
     count: usize,
     /// What the flash holds for each user-stored entry: the value an NMT reset loads.
     stored: [u32; MAX_STORED],
-    /// Bit k: entry k is stored at its default, so it follows the node-ID (COB-IDs "+ node-ID").
-    at_default: u64,
+    /// Bit k % 32 of word k / 32: entry k is stored at its default, so it follows the node-ID
+    /// (COB-IDs "+ node-ID"). Words of 32 bits: a 64-bit shift by a variable is long code on
+    /// the Cortex-M3.
+    at_default: [u32; MAX_STORED / 32],
     /// Groups a 1011h "load" marked: the next reset loads their factory defaults.
     restore: GroupMask,
     /// The node-ID every entry's `at_default` bit was computed for (`None`: not all the same).
@@ -160,11 +161,11 @@ impl Storage {
                 continue;
             }
             self.stored[k] = value;
-            let bit = 1u64 << k;
+            let (word, bit) = (&mut self.at_default[k / 32], 1 << (k % 32));
             if value == od.default_of(e, node_id) {
-                self.at_default |= bit;
+                *word |= bit;
             } else {
-                self.at_default &= !bit;
+                *word &= !bit;
             }
         }
         self.captured_id = if all || known { Some(node_id) } else { None };
@@ -196,27 +197,27 @@ pub(crate) fn power_on_as(
         .map(|e| image.and_then(|i| i.value_for(e)).unwrap_or(e.default_value_in(0, factory.unwrap_or(0))) as u8)
         .unwrap_or(fallback);
     let mut od = Od::with_factory_node_id(table, node_id, factory);
-    if let Some(image) = image {
-        for (pos, e) in table.iter().enumerate() {
-            if let Some(v) = image.value_for(e) {
-                od.set(pos, v);
-            }
-        }
-    }
     let mut storage = Storage {
         slots: [0; MAX_STORED],
         count: 0,
         stored: [0; MAX_STORED],
-        at_default: 0,
+        at_default: [0; MAX_STORED / 32],
         restore: GroupMask::default(),
         captured_id: None,
         saving: None,
-        fault: *loaded == Loaded::Invalid,
+        fault: matches!(loaded, Loaded::Invalid),
     };
-    for (k, pos, _) in user_entries(table) {
-        // MAX_ENTRIES (160) positions fit a byte; slot MAX_STORED panics.
-        storage.slots[k] = pos as u8;
-        storage.count = k + 1;
+    // One walk of the table: the stored values into the dictionary, the user-stored entries'
+    // positions into the slots.
+    for (pos, e) in table.iter().enumerate() {
+        if let Some(v) = image.and_then(|i| i.value_for(e)) {
+            od.set(pos, v);
+        }
+        if is_user(e) {
+            // MAX_ENTRIES (160) positions fit a byte; slot MAX_STORED panics.
+            storage.slots[storage.count] = pos as u8;
+            storage.count += 1;
+        }
     }
     storage.capture(&od, node_id, None);
     (od, storage, node_id)
@@ -297,7 +298,7 @@ impl Storage {
                 od.default_of(e, id)
             } else if !groups.contains(e.group) || is_pending(e) || is_log(e) {
                 continue;
-            } else if self.at_default & (1 << k) != 0 {
+            } else if self.at_default[k / 32] & 1 << (k % 32) != 0 {
                 od.default_of(e, id)
             } else {
                 self.stored[k]
@@ -336,8 +337,9 @@ fn key(index: u16, sub: u8) -> u32 {
 
 /// Most records one log entry holds: a save that changes more starts a new page.
 pub(crate) const LOG_MAX: usize = 32;
-/// The records of one log entry.
-pub(crate) type Log = heapless::Vec<Record, LOG_MAX>;
+/// The records of one log entry, and room for one more: a log holding more than [`LOG_MAX`]
+/// says that the save changed too many for one entry (no count kept beside it).
+pub(crate) type Log = heapless::Vec<Record, { LOG_MAX + 1 }>;
 
 /// Adds `r` to `log` if it has room (one call, rather than the push at each place).
 #[inline(never)]
@@ -359,9 +361,9 @@ impl Storable {
     /// checks).
     pub(crate) fn of(table: &'static [Entry]) -> Storable {
         let mut bits = [0u32; crate::od::MAX_ENTRIES.div_ceil(32)];
-        for (pos, e) in table.iter().enumerate().take(crate::od::MAX_ENTRIES) {
-            if is_stored(e) || is_pending(e) {
-                bits[pos / 32] |= 1 << (pos % 32);
+        for (pos, e) in table.iter().enumerate() {
+            if let (true, Some(word)) = (is_stored(e) || is_pending(e), bits.get_mut(pos / 32)) {
+                *word |= 1 << (pos % 32);
             }
         }
         Storable { table, bits }
@@ -369,9 +371,9 @@ impl Storable {
 }
 
 /// [`merge`] of the records `olds` into the empty `new`: one pass over the storable entries
-/// and the old records side by side (both sorted by index and sub-index). Returns how many keys changed
-/// (records added, changed or dropped): the records a log entry of this save holds, which go
-/// to `log` as far as it has room (a removal for a record dropped).
+/// and the old records side by side (both sorted by index and sub-index). The keys that changed
+/// (records added, changed or dropped) go to `log` as far as it has room (a removal for a
+/// record dropped): the records a log entry of this save holds, unless the log is full.
 pub(crate) fn merge_into(
     olds: &[Record],
     new: &mut Image,
@@ -380,9 +382,9 @@ pub(crate) fn merge_into(
     storable: &Storable,
     node_id: u8,
     mask: GroupMask,
-) -> Result<usize, image::Full> {
+) -> Result<(), image::Full> {
     let table = od.table();
-    let (mut i, mut changed) = (0, 0);
+    let mut i = 0;
     for (w, &word) in storable.bits.iter().enumerate() {
         let mut bits = word;
         while bits != 0 {
@@ -403,13 +405,17 @@ pub(crate) fn merge_into(
                 }
                 // A record of a key the dictionary does not declare, or does not store: dropped.
                 note(log, Record::removal(r.index, r.sub));
-                changed += 1;
             }
-            // The value the image keeps for the entry, if any.
-            let take = e.group.bit() & mask.0 & USER_GROUPS != 0 || (mask.0 & BY_HOOK != 0 && selected(e, mask));
-            let (value, keep) = match stored {
-                Some(r) if !take && (e.group != Group::Factory || r.fits(e)) => (r.value, r.fits(e)),
-                _ if take || e.group == Group::Factory => {
+            // The value the image keeps for the entry, if any: a selected entry's current value;
+            // else the stored one, kept if it fits (factory data that does not fit is replaced
+            // by the current value: factory data is only ever added).
+            let take = selected(e, mask);
+            let old = stored.filter(|_| !take);
+            let fits = old.is_some_and(|r| r.fits(e));
+            let factory = e.group == Group::Factory;
+            let (value, keep) = match old {
+                Some(r) if fits || !factory => (r.value, fits),
+                _ if take || factory => {
                     let value = od.get(pos);
                     (value, value != od.default_of(e, node_id))
                 }
@@ -421,7 +427,6 @@ pub(crate) fn merge_into(
                 _ => {
                     let record = if keep { Record::of(e, value) } else { Record::removal(e.index, e.sub) };
                     note(log, record);
-                    changed += 1;
                     if keep {
                         new.push(record)?;
                     }
@@ -432,7 +437,7 @@ pub(crate) fn merge_into(
     for r in &olds[i..] {
         note(log, Record::removal(r.index, r.sub));
     }
-    Ok(changed + olds.len() - i)
+    Ok(())
 }
 
 #[cfg(test)]

@@ -282,3 +282,11 @@ fn a_device_may_widen_what_a_restore_covers() {
     assert_eq!(core.od.value(0x1014, 0), Some(0x81), "defaults for the node-ID the reset activates");
     assert_eq!(core.od.value(0x6002, 0), Some(5000));
 }
+
+#[test]
+fn user_bit_is_the_group_bit_of_the_user_groups() {
+    for g in [Group::None, Group::Comm, Group::App, Group::Manuf, Group::Factory] {
+        let expected = if matches!(g, Group::Comm | Group::App | Group::Manuf) { g.bit() } else { 0 };
+        assert_eq!(user_bit(g), expected, "{g:?}");
+    }
+}
