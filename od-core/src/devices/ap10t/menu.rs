@@ -119,28 +119,25 @@ pub struct DiagEntry {
 /// A number being entered digit by digit.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 pub struct Entry {
-    /// The digits, most significant first; `len` of them are used.
-    pub digits: [u8; CELLS],
+    /// The number as entered so far (under 10^`len`).
+    value: u32,
     /// Number of digits (3 for the node-ID, 6 for a CODE).
     pub len: u8,
     /// The selected digit, counted from the right (0 = least significant).
     pub pos: u8,
 }
 
+/// 10^`i` for the digit positions of an [`Entry`].
+const POW10: [u32; CELLS] = [1, 10, 100, 1_000, 10_000, 100_000];
+
 impl Entry {
     fn new(value: u32, len: u8) -> Entry {
-        let mut digits = [0u8; CELLS];
-        let mut v = value;
-        for i in (0..len as usize).rev() {
-            digits[i] = (v % 10) as u8;
-            v /= 10;
-        }
-        Entry { digits, len, pos: 0 }
+        Entry { value, len, pos: 0 }
     }
 
     /// The entered number.
     pub fn value(&self) -> u32 {
-        self.digits[..self.len as usize].iter().fold(0, |acc, &d| acc * 10 + d as u32)
+        self.value
     }
 
     fn select_left(&mut self) {
@@ -149,18 +146,17 @@ impl Entry {
     }
 
     fn count_up(&mut self) {
-        let i = (self.len - 1 - self.pos) as usize % CELLS;
-        let d = &mut self.digits[i];
+        let p = POW10[self.pos as usize % CELLS];
         // 9 counts up to 0.
-        *d = if *d < 9 { *d + 1 } else { 0 };
+        self.value = if self.value / p % 10 < 9 { self.value + p } else { self.value - 9 * p };
     }
 
     /// The digits right-aligned, the selected one blank in the dark half of the blink period.
     fn row(&self, now: Instant) -> Row {
         let mut row = Row::BLANK;
-        put_digits(&mut row, self.value(), 10, self.len as usize, 0);
+        put_digits(&mut row, self.value, 10, self.len as usize, 0);
         if !blink_on(now) {
-            row.0[CELLS - 1 - self.pos as usize] = Cell::BLANK;
+            row.0[CELLS - 1 - self.pos as usize % CELLS] = Cell::BLANK;
         }
         row
     }

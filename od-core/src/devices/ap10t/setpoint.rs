@@ -10,7 +10,7 @@
 //! acknowledged.
 
 use super::keys::{Key, KeySet};
-use super::words::{cw, sw, ControlWord, StatusWord};
+use super::words::{cw, sw, StatusWord};
 
 /// Which set point: 1 (upper row, RPDO1/TPDO1) or 2 (lower row, RPDO2/TPDO2).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -64,7 +64,7 @@ impl SetPoint {
 pub struct SetPoints {
     /// Set point 1 and set point 2.
     pub sp: [SetPoint; 2],
-    /// The control word of the last RPDO (5F0Ch), as its 16 bits (see [`ControlWord`]; kept
+    /// The control word of the last RPDO (5F0Ch), as its 16 bits (see [`ControlWord`](super::words::ControlWord); kept
     /// raw, each user tests the bits it needs).
     pub control: u16,
 }
@@ -83,21 +83,21 @@ impl SetPoints {
     /// Takes the 8 data bytes of RPDO1 (`Sp1`) or RPDO2 (`Sp2`).
     pub fn receive(&mut self, which: Which, data: &[u8; 8]) {
         let w = u16::from_le_bytes([data[6], data[7]]);
-        let control = ControlWord::from_bits(w);
+        let ascii = w & cw::ASCII != 0;
         let mut bytes = [0u8; 6];
         bytes.copy_from_slice(&data[..6]);
-        let valid = [control.sp1_valid, control.sp2_valid];
-        let ack = [control.sp1_ack, control.sp2_ack];
-        for i in 0..2 {
+        // Validity and acknowledgement bits of set point 1, then set point 2.
+        for (i, (valid, ack)) in [(cw::SP1_VALID, cw::SP1_ACK), (cw::SP2_VALID, cw::SP2_ACK)].into_iter().enumerate() {
+            let (valid, ack) = (w & valid != 0, w & ack != 0);
             let sp = &mut self.sp[i];
-            let mut changed = !sp.valid && valid[i];
+            let mut changed = !sp.valid && valid;
             if i == which.index() {
-                changed |= sp.differs(&bytes, control.ascii);
+                changed |= sp.differs(&bytes, ascii);
                 sp.bytes = bytes;
-                sp.ascii = control.ascii;
+                sp.ascii = ascii;
             }
-            sp.valid = valid[i];
-            sp.acknowledged = sp.valid && (ack[i] || (sp.acknowledged && !changed));
+            sp.valid = valid;
+            sp.acknowledged = valid && (ack || (sp.acknowledged && !changed));
         }
         self.control = w;
     }
