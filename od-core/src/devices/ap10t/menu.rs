@@ -96,15 +96,8 @@ fn baud_index(code: u8) -> u8 {
 
 /// A baud-rate setting (5F0Ah sub 3) as text.
 pub const fn baud_text(code: u8) -> &'static str {
-    match code {
-        0 => "AUTO",
-        1 => "125",
-        2 => "250",
-        3 => "500",
-        4 => "800",
-        5 => "1000",
-        _ => "---",
-    }
+    const TEXTS: [&str; 7] = ["AUTO", "125", "250", "500", "800", "1000", "---"];
+    TEXTS[if code < 6 { code as usize } else { 6 }]
 }
 
 /// One line of the diagnosis list (manual 3.8.2; D-AP-9): an error and how often it occurred.
@@ -400,6 +393,8 @@ impl Mode {
         // `value` right-aligned over it, and the lower row.
         let baud = |code: u8| Row::right(baud_text(code));
         let mut value = None;
+        // The diagnosis's error number, the upper row's first cell.
+        let mut number = None;
         let mut lower = Row::BLANK;
         let text = match self {
             Mode::Normal => "",
@@ -442,12 +437,16 @@ impl Mode {
                     let e = diag[i];
                     value = Some(e.count as u32);
                     lower = hex_row(e.code);
-                    &"12345678"[i..i + 1]
+                    number = Some(b'1' + i as u8);
+                    ""
                 }
             }
             Mode::AutoId(_) => "New ID",
         };
         let mut upper = Row::left(text);
+        if let Some(ch) = number {
+            upper.0[0].ch = ch;
+        }
         if let Some(v) = value {
             // What `overlay` of its `decimal_row` does: the digits replace the cells they take.
             put_digits(&mut upper, v, 10, 1, 0);
