@@ -208,13 +208,6 @@ fn overlay(mut row: Row, value: Row) -> Row {
     row
 }
 
-/// `n` in decimal, right-aligned (the menu's numbers have at most five digits).
-fn decimal_row(n: u32) -> Row {
-    let mut row = Row::BLANK;
-    put_digits(&mut row, n, 10, 1, 0);
-    row
-}
-
 /// `n` in decimal as text.
 pub fn decimal(n: u32) -> heapless::String<10> {
     let mut s = heapless::String::new();
@@ -242,13 +235,6 @@ const fn hex_digit(d: u8) -> u8 {
     } else {
         b'A' + d - 10
     }
-}
-
-/// `n` as four hex digits, right-aligned.
-fn hex_row(n: u16) -> Row {
-    let mut row = Row::BLANK;
-    put_digits(&mut row, n as u32, 16, 4, 0);
-    row
 }
 
 /// `n` as four hex digits.
@@ -390,41 +376,41 @@ impl Mode {
     pub fn screen(self, now: Instant, ctx: &MenuContext, diag: &[DiagEntry]) -> [Row; 2] {
         const ALL_SEGMENTS: &str = "8.8.8.8.8.8.";
         // One shape for every mode: a text from the left on the upper row with a decimal
-        // `value` right-aligned over it, and the lower row.
-        let baud = |code: u8| Row::right(baud_text(code));
+        // `value` right-aligned over it, and the lower row: a baud rate setting's text, a
+        // number, an entry.
         let mut value = None;
         // The diagnosis's error number, the upper row's first cell.
         let mut number = None;
+        let mut baud = None;
         let mut lower = Row::BLANK;
         let text = match self {
             Mode::Normal => "",
-            Mode::PowerUp(_) => {
-                lower = Row::left(ALL_SEGMENTS);
-                ALL_SEGMENTS
-            }
+            Mode::PowerUp(_) => ALL_SEGMENTS,
             Mode::Info(_) => {
                 value = Some(ctx.node_id as u32);
-                lower = baud(ctx.baud);
+                baud = Some(ctx.baud);
                 Item::Id.label()
             }
             Mode::List(item) => {
                 match item {
-                    Item::Id => lower = decimal_row(ctx.node_id as u32),
-                    Item::Kbaud => lower = baud(ctx.baud),
+                    Item::Id => {
+                        put_digits(&mut lower, ctx.node_id as u32, 10, 1, 0);
+                    }
+                    Item::Kbaud => baud = Some(ctx.baud),
                     Item::Code => {}
                 }
                 item.label()
             }
-            Mode::EditId(e) => {
+            Mode::EditId(e) | Mode::EditCode(e) => {
                 lower = e.row(now);
-                Item::Id.label()
-            }
-            Mode::EditCode(e) => {
-                lower = e.row(now);
-                Item::Code.label()
+                if let Mode::EditId(_) = self {
+                    Item::Id.label()
+                } else {
+                    Item::Code.label()
+                }
             }
             Mode::Baud(i) => {
-                lower = baud(BAUD_LIST[i as usize % BAUD_LIST.len()]);
+                baud = Some(BAUD_LIST[i as usize % BAUD_LIST.len()]);
                 Item::Kbaud.label()
             }
             Mode::Diagnosis(n) => {
@@ -436,7 +422,7 @@ impl Mode {
                     let i = n as usize % diag.len();
                     let e = diag[i];
                     value = Some(e.count as u32);
-                    lower = hex_row(e.code);
+                    put_digits(&mut lower, e.code as u32, 16, 4, 0);
                     number = Some(b'1' + i as u8);
                     ""
                 }
@@ -444,11 +430,17 @@ impl Mode {
             Mode::AutoId(_) => "New ID",
         };
         let mut upper = Row::left(text);
+        if let Mode::PowerUp(_) = self {
+            lower = upper;
+        }
+        if let Some(code) = baud {
+            lower = Row::right(baud_text(code));
+        }
         if let Some(ch) = number {
             upper.0[0].ch = ch;
         }
         if let Some(v) = value {
-            // What `overlay` of its `decimal_row` does: the digits replace the cells they take.
+            // The digits replace the cells they take (the value wins where they overlap).
             put_digits(&mut upper, v, 10, 1, 0);
         }
         [upper, lower]

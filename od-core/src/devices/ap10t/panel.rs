@@ -254,6 +254,7 @@ impl core::fmt::Display for View {
 /// The quarter of the power-up display test (started at `since`) that `now` is in: 0..=3 while
 /// it runs, the LED element lit. The test lasts a second: its elapsed time fits 32 bits (a
 /// 64-bit division is a library routine of about 1 KiB on the Cortex-M3).
+#[inline(never)]
 fn power_up_quarter(since: Instant, now: Instant) -> u32 {
     let elapsed = now.micros_since(since).min(u32::MAX as u64) as u32;
     elapsed / (POWER_UP_MS as u32 * 250)
