@@ -373,6 +373,7 @@ impl Mode {
     /// The two rows of a menu mode at `now` (for [`Mode::Normal`] the panel renders the set
     /// points; here it is blank). The diagnosis shows the first eight entries of `diag` at
     /// most, as many as the panel keeps.
+    #[inline(never)]
     pub fn screen(self, now: Instant, ctx: &MenuContext, diag: &[DiagEntry]) -> [Row; 2] {
         const ALL_SEGMENTS: &str = "8.8.8.8.8.8.";
         // One shape for every mode: a text from the left on the upper row with a decimal
