@@ -79,17 +79,16 @@ impl Default for LightConfig {
 /// right, LED4 red right): which are on, and which of those blink.
 fn elements(cfg: &LightConfig, sps: &SetPoints) -> (u8, u8) {
     let w = sps.control;
-    let [s1, s2] = sps.sp;
-    let bits = |b: [bool; 4]| b.iter().enumerate().fold(0u8, |m, (i, &on)| m | (on as u8) << i);
-    let by_ack = bits([
-        s1.valid && s1.acknowledged,
-        s1.valid && !s1.acknowledged,
-        s2.valid && s2.acknowledged,
-        s2.valid && !s2.acknowledged,
-    ]);
+    // A valid set point lights its green element (bit 2i) acknowledged, else its red one.
+    let mut by_ack = 0u8;
+    for (i, s) in sps.sp.iter().enumerate() {
+        if s.valid {
+            by_ack |= (if s.acknowledged { 1 } else { 2 }) << (2 * i);
+        }
+    }
     // Control word bits 11 (LED1), 14 (LED2), 12 (LED3), 13 (LED4) to elements 0..=3.
     let by_cw = (w >> 11 & 1 | w >> 13 & 2 | w >> 10 & 0b1100) as u8;
-    let ack_dependent = bits(cfg.ack_dependent);
+    let ack_dependent = cfg.ack_dependent.iter().rev().fold(0u8, |m, &on| m << 1 | on as u8);
     let on = (by_ack & ack_dependent) | (by_cw & !ack_dependent);
     // FLASH LED makes every element blink, control word bit 15 those under its control.
     let blinks = if cfg.flash_leds {
