@@ -341,10 +341,10 @@ impl Device for Ap10t {
                 core.od.set(at::EVENT_TIMER, value);
                 core.od.set(at::CYCLE_TIMER, value);
             }
-            hooks::PANEL => {
-                // A refused value leaves the parameters as they were.
-                let i = at::PANEL.iter().position(|&p| p as usize == pos).unwrap_or(usize::MAX);
-                self.panel.params.write_nth(i, value).map_err(|_| Abort::INVALID_VALUE)?;
+            // The hook numbers the parameter (`hooks::PANEL`); a refused value leaves the
+            // parameters as they were.
+            h if h >= hooks::PANEL => {
+                self.panel.params.write_nth((h - hooks::PANEL) as usize, value).map_err(|_| Abort::INVALID_VALUE)?;
             }
             hooks::EXTERNAL_HEARTBEAT => {
                 if e.sub == 1 && (1..10).contains(&value) {

@@ -21,8 +21,10 @@ pub mod hooks {
     /// 5F0Ah.02: starts the Auto-ID.
     pub const AUTO_ID: u8 = 2;
     /// A parameter of the front panel (2003h, 2004h, 2005h.01/.02, 5F0Bh, 5F11h, 5F12h, 5F1Ch):
-    /// the panel takes the new value at once.
-    pub const PANEL: u8 = 3;
+    /// the panel takes the new value at once. The hook of the `i`th of
+    /// [`PANEL_OBJECTS`](super::PANEL_OBJECTS) is `PANEL + i`, so the write finds its field
+    /// without a search.
+    pub const PANEL: u8 = 16;
     /// 5F09h.01 external heartbeat time: 0 or 10..65535 ms; 5F09h.02 its source.
     pub const EXTERNAL_HEARTBEAT: u8 = 4;
 }
@@ -95,7 +97,7 @@ const fn panel_var(index: u16, name: &'static str, default: u32, lo: i64, hi: i6
     Entry::var(index, name, Unsigned8, Rw, default).range(lo, hi).group(MANUF).hook(dev(hooks::PANEL))
 }
 
-const ROWS_CONST: [Entry; ENTRIES] = comm::join(&[
+const ROWS_CONST: [Entry; ENTRIES] = panel_hooks(comm::join(&[
     comm::rows(&PROFILE).as_slice(),
     &[
         panel_var(0x2003, "Key actuation enable (2003h)", 1, 0, 1),
@@ -159,7 +161,21 @@ const ROWS_CONST: [Entry; ENTRIES] = comm::join(&[
         Entry::var(0x6508, "Operating time", Unsigned32, Ro, 0xFFFF_FFFF),
         Entry::var(0x650B, "Serial number", Unsigned32, Ro, 0xFFFF_FFFF),
     ],
-]);
+]));
+
+/// Numbers the panel parameters' hooks: the `i`th of [`PANEL_OBJECTS`] gets
+/// [`hooks::PANEL`]` + i` (those with another hook, 5F0Ah's, keep it).
+const fn panel_hooks(mut rows: [Entry; ENTRIES]) -> [Entry; ENTRIES] {
+    let mut i = 0;
+    while i < PANEL_OBJECTS.len() {
+        let p = crate::encoder::position(&rows, PANEL_OBJECTS[i].0, PANEL_OBJECTS[i].1) as usize;
+        if matches!(rows[p].hook, Hook::Device(hooks::PANEL)) {
+            rows[p].hook = Hook::Device(hooks::PANEL + i as u8);
+        }
+        i += 1;
+    }
+    rows
+}
 
 static ROWS: [Entry; ENTRIES] = ROWS_CONST;
 
@@ -243,6 +259,19 @@ mod tests {
         for (i, &(index, sub)) in PANEL_OBJECTS.iter().enumerate() {
             assert_eq!(at::PANEL[i] as usize, pos(index, sub));
         }
+    }
+
+    #[test]
+    fn panel_hooks_number_the_panel_parameters() {
+        // Every panel parameter but 5F0Ah's two (the node's own rows) names its place in
+        // PANEL_OBJECTS; no other row has a hook in that range.
+        for (i, &(index, sub)) in PANEL_OBJECTS.iter().enumerate() {
+            let e = &TABLE[at::PANEL[i] as usize];
+            let want = if index == 0x5F0A { e.hook } else { Hook::Device(hooks::PANEL + i as u8) };
+            assert_eq!(e.hook, want, "{index:04X}h.{sub}");
+        }
+        let numbered = TABLE.iter().filter(|e| matches!(e.hook, Hook::Device(h) if h >= hooks::PANEL)).count();
+        assert_eq!(numbered, PANEL_OBJECTS.len() - 2);
     }
 
     #[test]
