@@ -145,6 +145,10 @@ impl Leds {
 /// How often the keys are scanned, in microseconds (the debouncer counts in these steps).
 pub const KEY_SCAN_US: u32 = 1_000;
 
+/// No frame: every frame starts with the write mode `101` (`board_plan::lcd::frame`), this
+/// one with 1s, so the first view is always written.
+const NOT_SHOWN: [u8; FRAME_LEN] = [0xFF; FRAME_LEN];
+
 /// The front panel as the device's [`Io`]: key edges to the device, its view to the LCD (the
 /// driver's RAM rewritten only when the frame for it changed) and the LEDs.
 pub struct Panel {
@@ -154,15 +158,15 @@ pub struct Panel {
     pub keys: Keys,
     /// The LEDs.
     pub leds: Leds,
-    /// The frame the LCD driver last took.
-    shown: Option<[u8; FRAME_LEN]>,
+    /// The frame the LCD driver last took ([`NOT_SHOWN`] before the first).
+    shown: [u8; FRAME_LEN],
 }
 
 impl Panel {
     /// The panel, the LCD started.
     pub fn new(mut lcd: Lcd, keys: Keys, leds: Leds) -> Panel {
         lcd.init();
-        Panel { lcd, keys, leds, shown: None }
+        Panel { lcd, keys, leds, shown: NOT_SHOWN }
     }
 }
 
@@ -187,9 +191,9 @@ impl Io<Ap10t> for Panel {
         let View { screen, leds, .. } = device.view(now);
         // Comparing the 18 bytes for the driver is less code than comparing views.
         let bytes = screen_frame(&screen);
-        if self.shown != Some(bytes) {
+        if self.shown != bytes {
             self.lcd.write(&bytes);
-            self.shown = Some(bytes);
+            self.shown = bytes;
         }
         self.leds.set(leds.bits());
         device.next_change(now)
