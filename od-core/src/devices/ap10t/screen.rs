@@ -167,12 +167,12 @@ pub(crate) fn put_digits(row: &mut Row, mut n: u32, radix: u32, min: usize, poin
 
 /// "FULLL" (manual 3.2).
 pub fn full() -> Row {
-    Row::right("FULLL")
+    FULL
 }
 
 /// "---" (manual 3.2).
 pub fn no_set_point() -> Row {
-    Row::right("---")
+    DASHES
 }
 
 /// A set point as text, six ASCII characters from byte 0 (D-AP-5): a NUL or any byte outside
@@ -201,30 +201,45 @@ pub struct RowStyle {
 /// What a set point's row shows at `now`.
 pub fn set_point_row(sp: &SetPoint, style: RowStyle, now: Instant) -> Row {
     let lit = blink_on(now);
-    // Every text row ("---", dark, "FULLL") through one `Row::right`.
-    let text = if !sp.valid {
-        "---"
-    } else if !sp.acknowledged && !style.steady_unacknowledged && !lit {
-        ""
-    } else if sp.ascii {
+    if !sp.valid {
+        return DASHES;
+    }
+    if !sp.acknowledged && !style.steady_unacknowledged && !lit {
+        return Row::BLANK;
+    }
+    if sp.ascii {
         return ascii(&sp.bytes);
-    } else {
-        let v = sp.number();
-        let extended = style.extended && sp.acknowledged && (EXTENDED_MIN..STANDARD_MIN).contains(&v);
-        if extended || (STANDARD_MIN..=MAX).contains(&v) {
-            // Every value of the standard range fits; one of the extended range that needs all
-            // six cells for its digits alternates its leftmost cell between '-' (lit half of
-            // the blink period) and the highest digit.
-            let (mut row, fits) = digits_row(v, style.decimals);
-            if !fits && lit {
-                row.0[0].ch = b'-';
-            }
-            return row;
+    }
+    let v = sp.number();
+    let extended = style.extended && sp.acknowledged && (EXTENDED_MIN..STANDARD_MIN).contains(&v);
+    if extended || (STANDARD_MIN..=MAX).contains(&v) {
+        // Every value of the standard range fits; one of the extended range that needs all
+        // six cells for its digits alternates its leftmost cell between '-' (lit half of
+        // the blink period) and the highest digit.
+        let (mut row, fits) = digits_row(v, style.decimals);
+        if !fits && lit {
+            row.0[0].ch = b'-';
         }
-        "FULLL"
-    };
-    Row::right(text)
+        return row;
+    }
+    FULL
 }
+
+/// Six characters as a row, every point dark.
+const fn text_row(text: &[u8; CELLS]) -> Row {
+    let mut row = Row::BLANK;
+    let mut i = 0;
+    while i < CELLS {
+        row.0[i].ch = text[i];
+        i += 1;
+    }
+    row
+}
+
+/// "FULLL" right-aligned.
+const FULL: Row = text_row(b" FULLL");
+/// "---" right-aligned.
+const DASHES: Row = text_row(b"   ---");
 
 /// Whether a set point's row changes with time (flashing or alternating).
 pub fn set_point_blinks(sp: &SetPoint, style: RowStyle) -> bool {
@@ -432,5 +447,11 @@ mod tests {
         assert_eq!(&p[0].map(|c| c.ch), b"-12345");
         assert_eq!(p[0].map(|c| c.dp), [false, false, false, true, false, false]);
         assert!(!p[0][0].upside_down);
+    }
+
+    #[test]
+    fn the_fixed_rows_are_their_texts_right_aligned() {
+        assert_eq!(full(), Row::right("FULLL"));
+        assert_eq!(no_set_point(), Row::right("---"));
     }
 }
