@@ -54,8 +54,11 @@ impl SetPoint {
     /// Whether `bytes` with identifier `ascii` show something else than `self` (only the bytes
     /// that matter for the type count).
     fn differs(&self, bytes: &[u8; 6], ascii: bool) -> bool {
+        // Bytes 0-3 and 4-5 as two words (no byte-slice comparison).
+        let head = |b: &[u8; 6]| u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+        let tail = |b: &[u8; 6]| u16::from_le_bytes([b[4], b[5]]);
         let (a, b) = (&self.bytes, bytes);
-        self.ascii != ascii || a[..4] != b[..4] || (ascii && a[4..] != b[4..])
+        self.ascii != ascii || head(a) != head(b) || (ascii && tail(a) != tail(b))
     }
 }
 
