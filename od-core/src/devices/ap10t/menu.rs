@@ -89,9 +89,26 @@ impl Item {
 /// AP10T A30).
 pub const BAUD_LIST: [u8; 5] = [0, 1, 2, 3, 4];
 
-/// The position in [`BAUD_LIST`] of the setting `code` (the first for one not in the list).
+/// The position in [`BAUD_LIST`] of the setting `code` (the first for one not in the list):
+/// the list holds each setting at its own value.
 fn baud_index(code: u8) -> u8 {
-    BAUD_LIST.iter().position(|&b| b == code).unwrap_or(0) as u8
+    const _: () = {
+        let mut i = 0;
+        while i < BAUD_LIST.len() {
+            assert!(BAUD_LIST[i] as usize == i);
+            i += 1;
+        }
+    };
+    if (code as usize) < BAUD_LIST.len() {
+        code
+    } else {
+        0
+    }
+}
+
+/// The setting at position `i` of [`BAUD_LIST`] (counted round).
+fn baud_at(i: u8) -> u8 {
+    BAUD_LIST[i as usize % BAUD_LIST.len()]
 }
 
 /// A baud-rate setting (5F0Ah sub 3) as text.
@@ -315,9 +332,9 @@ impl Mode {
             }
             Mode::Baud(i) => {
                 if key == m.value_input {
-                    *i = (*i + 1) % BAUD_LIST.len() as u8;
+                    *i = baud_index(i.wrapping_add(1));
                 } else if key == m.confirm {
-                    let code = BAUD_LIST[*i as usize % BAUD_LIST.len()];
+                    let code = baud_at(*i);
                     *self = Mode::List(Item::Kbaud);
                     return Some(Effect::SetBaud(code));
                 }
@@ -411,7 +428,7 @@ impl Mode {
                 }
             }
             Mode::Baud(i) => {
-                baud = Some(BAUD_LIST[i as usize % BAUD_LIST.len()]);
+                baud = Some(baud_at(i));
                 Item::Kbaud.label()
             }
             Mode::Diagnosis(n) => {
