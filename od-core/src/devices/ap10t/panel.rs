@@ -2,7 +2,7 @@
 //! and release at an instant), parameters in (a [`Params`] value the device builds from its
 //! dictionary); screen, LEDs, backlight, status word, TPDO data and [`Effect`]s out.
 
-use crate::time::{earliest, Instant};
+use crate::time::Instant;
 
 use super::keys::{AckKeys, Key, KeySet, KEYMAP};
 use super::leds::{self, Backlight, Bicolour, Leds, LightConfig};
@@ -439,7 +439,11 @@ impl Panel {
         };
         let next = mode.deadline(self.last_key);
         if blink || leds::blinks(&p.lights, &self.sps) {
-            return earliest(next, Some(next_blink_edge(now)));
+            let edge = next_blink_edge(now);
+            return Some(match next {
+                Some(t) if t < edge => t,
+                _ => edge,
+            });
         }
         next
     }
