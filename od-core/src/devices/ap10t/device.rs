@@ -60,8 +60,7 @@ pub const BUS_PARAMETERS: [(u16, u8); 18] = [
 
 /// Is `e` a bus parameter (Table 4)? 6200h is the same value as 1800h.05 and goes with it.
 pub fn is_bus_parameter(e: &Entry) -> bool {
-    let key = (e.index, e.sub);
-    key == (0x6200, 0) || BUS_PARAMETERS.iter().any(|&p| p == key)
+    (e.index, e.sub) == (0x6200, 0) || BUS_PARAMETERS.iter().any(|&(i, s)| i == e.index && s == e.sub)
 }
 
 /// The rates the automatic detection tries, in this order (5F0Ah.03 codes 1..5).
