@@ -452,7 +452,10 @@ impl Mode {
             lower = upper;
         }
         if let Some(code) = baud {
-            lower = Row::right(baud_text(code));
+            // Right-aligned; the texts have no points.
+            for (cell, &c) in lower.0.iter_mut().rev().zip(baud_text(code).as_bytes().iter().rev()) {
+                cell.ch = c;
+            }
         }
         if let Some(ch) = number {
             upper.0[0].ch = ch;
