@@ -808,11 +808,6 @@ impl Od {
         Od { table, lookup: Lookup::new(table), values: [0; MAX_ENTRIES], factory: factory.unwrap_or(0) }
     }
 
-    /// The node-ID the variant ships with ([`Od::with_factory_node_id`]; 0: the declared one).
-    pub(crate) fn factory(&self) -> u8 {
-        self.factory
-    }
-
     /// The declarations.
     pub fn table(&self) -> &'static [Entry] {
         self.table

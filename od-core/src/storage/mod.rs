@@ -220,15 +220,13 @@ pub(crate) fn power_on_in(od: &mut Od, storage: &mut Storage, loaded: &Loaded, f
     let node_id = table
         .iter()
         .find(|e| e.hook == Hook::Core(CoreHook::PendingNodeId))
-        .map(|e| image.and_then(|i| i.value_for(e)).unwrap_or(e.default_value_in(0, od.factory())) as u8)
+        .map(|e| image.and_then(|i| i.value_for(e)).unwrap_or(od.default_of(e, 0)) as u8)
         .unwrap_or(fallback);
-    od.load_defaults(|_| true, node_id);
-    // One walk of the table: the stored values into the dictionary, the user-stored entries'
-    // positions into the slots.
+    // One walk of the table: the stored value or else the default into the dictionary, the
+    // user-stored entries' positions into the slots.
     for (pos, e) in table.iter().enumerate() {
-        if let Some(v) = image.and_then(|i| i.value_for(e)) {
-            od.set(pos, v);
-        }
+        let value = image.and_then(|i| i.value_for(e));
+        od.set(pos, value.unwrap_or_else(|| od.default_of(e, node_id)));
         if is_user(e) {
             // MAX_ENTRIES (160) positions fit a byte; slot MAX_STORED panics.
             storage.slots[storage.count] = pos as u8;
