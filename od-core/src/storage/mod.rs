@@ -242,9 +242,11 @@ pub fn pending(od: &Od, hook: CoreHook) -> Option<u32> {
     od.table().iter().position(|e| e.hook == Hook::Core(hook)).map(|pos| od.get(pos))
 }
 
-/// The group mask a 1010h/1011h sub-index selects.
-pub(crate) fn group_of(od: &Od, pos: usize) -> Result<GroupMask, Abort> {
-    GroupMask::from_subindex(od.entry(pos).sub).ok_or(Abort::CANNOT_STORE)
+/// The group mask a 1010h/1011h sub-index selects (`None`: the sub-index selects none, which
+/// the caller answers 08000020h). An `Option` of one byte comes back in a register, where a
+/// `Result` with the abort code would go through memory.
+pub(crate) fn group_of(od: &Od, pos: usize) -> Option<GroupMask> {
+    GroupMask::from_subindex(od.entry(pos).sub)
 }
 
 impl Storage {
