@@ -162,7 +162,7 @@ impl<D: CanopenDevice> Node<D> {
             sdo: SdoServer::new(),
             heartbeat: Heartbeat::default(),
             guarding: Guarding::default(),
-            pdo: Pdos::default(),
+            pdo: fresh(),
             lss,
             scan: None,
             filter: (RxFilter::OPEN, 0),
@@ -678,6 +678,13 @@ impl<D: CanopenDevice> Node<D> {
         self.filter.1 = !self.rx_ids_generation();
         (&mut self.ctx, &mut self.nmt, &mut self.pdo)
     }
+}
+
+/// `T::default()` out of line: built straight into the field it goes to, not in a temporary
+/// that is then copied (a large default such as the PDOs').
+#[inline(never)]
+fn fresh<T: Default>() -> T {
+    T::default()
 }
 
 /// Sets the entries that no parameter group stores and whose default is "base + node-ID" to
