@@ -245,6 +245,7 @@ pub fn pending(od: &Od, hook: CoreHook) -> Option<u32> {
 /// The group mask a 1010h/1011h sub-index selects (`None`: the sub-index selects none, which
 /// the caller answers 08000020h). An `Option` of one byte comes back in a register, where a
 /// `Result` with the abort code would go through memory.
+#[inline]
 pub(crate) fn group_of(od: &Od, pos: usize) -> Option<GroupMask> {
     GroupMask::from_subindex(od.entry(pos).sub)
 }
