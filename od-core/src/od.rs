@@ -778,8 +778,9 @@ pub struct Od {
 impl Od {
     /// Builds the dictionary with every value at its default for `node_id`.
     ///
-    /// Panics (at start-up, never on the bus) if the table is unsorted or too large: a
-    /// declaration bug every device test catches.
+    /// Panics (at start-up, never on the bus) if the table is too large, and in debug builds
+    /// if it is unsorted: declaration bugs every device test catches (the device tables'
+    /// order is checked at compile time, by `devices::comm::join`).
     pub fn new(table: &'static [Entry], node_id: u8) -> Od {
         Od::with_factory_node_id(table, node_id, None)
     }
