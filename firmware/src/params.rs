@@ -6,8 +6,7 @@
 
 use boards::flash::Flash;
 use embedded_storage::nor_flash::NorFlash;
-use od_core::od::Entry;
-use od_core::storage::{identity, ParamFlash, Region};
+use od_core::storage::{ParamFlash, Region};
 
 /// The parameter pages of a board.
 pub type Params = ParamFlash<Flash>;
@@ -26,7 +25,8 @@ pub fn region() -> Region {
     Region { offset, pages: size / Flash::ERASE_SIZE as u32 }
 }
 
-/// The parameter pages of the device whose dictionary is `table`.
-pub fn open(flash: Flash, table: &'static [Entry]) -> Params {
-    ParamFlash::new(flash, region(), identity(table))
+/// The parameter pages of the device whose images carry `identity`
+/// (`od_core::storage::identity` of its dictionary, computed when the image is built).
+pub fn open(flash: Flash, identity: u32) -> Params {
+    ParamFlash::new(flash, region(), identity)
 }

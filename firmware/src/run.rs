@@ -17,7 +17,7 @@ use embassy_time::{Duration, Timer};
 use od_core::encoder::program_serial;
 use od_core::j1939::node::{J1939Device, J1939Node};
 use od_core::node::{CanopenDevice, Device, Node, Output};
-use od_core::od::{Entry, Group};
+use od_core::od::Group;
 use od_core::storage::{Loaded, Record};
 use od_core::time::earliest;
 use od_core::DeviceStation;
@@ -87,19 +87,20 @@ fn serve<N: DeviceStation>(node: &mut N, bus: &mut Bus, params: &mut Params, wat
 }
 
 /// Runs the CANopen `device` on the board for ever: powers it on from the parameter pages in
-/// `mcu`'s flash, joins the bus at the stored bit rate, and loops ([`drive`]).
-pub async fn run<D: CanopenDevice, I: Io<D>>(device: D, mcu: Mcu, io: I) -> ! {
-    let table = device.table();
-    drive(mcu, table, |params, uid| boot(device, params, uid), io).await
+/// `mcu`'s flash, joins the bus at the stored bit rate, and loops ([`drive`]). `identity` is
+/// [`od_core::storage::identity`] of the device's dictionary, which each binary computes
+/// when it is built (a `const`) rather than walking its dictionary at every boot.
+pub async fn run<D: CanopenDevice, I: Io<D>>(device: D, identity: u32, mcu: Mcu, io: I) -> ! {
+    drive(mcu, identity, |params, uid| boot(device, params, uid), io).await
 }
 
 /// The main loop over any node, CANopen or J1939, through the core's shell interface
 /// ([`od_core::Station`], [`DeviceStation`]): `make` powers the node on from the parameter
-/// pages of the device whose dictionary is `table` (inside this future, so that the node is
-/// stored once).
+/// pages of the device whose images carry `identity` ([`run`]; inside this future, so that
+/// the node is stored once).
 pub async fn drive<N, I>(
     mcu: Mcu,
-    table: &'static [Entry],
+    identity: u32,
     make: impl FnOnce(&mut Params, &[u8; 12]) -> N,
     mut io: I,
 ) -> !
@@ -112,7 +113,7 @@ where
     if reset.is_fault() {
         defmt::warn!("reset by the watchdog: the main loop had stopped");
     }
-    let mut params = params::open(flash, table);
+    let mut params = params::open(flash, identity);
     let mut node = make(&mut params, &uid);
     // The transceiver leaves standby only now; the controller, in sleep until `Bus::start`
     // enables it, keeps its TX pin recessive meanwhile.

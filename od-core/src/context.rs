@@ -152,7 +152,7 @@ impl Context {
         if value != SAVE {
             return Err(Abort::CANNOT_STORE);
         }
-        let mask = storage::group_of(&self.od, pos)?;
+        let mask = storage::group_of(&self.od, pos).ok_or(Abort::CANNOT_STORE)?;
         self.request_store(mask)?;
         Ok(Written::Deferred)
     }
@@ -163,7 +163,7 @@ impl Context {
         if value != LOAD {
             return Err(Abort::CANNOT_STORE);
         }
-        let mask = storage::group_of(&self.od, pos)?;
+        let mask = storage::group_of(&self.od, pos).ok_or(Abort::CANNOT_STORE)?;
         self.storage.mark_restore(mask);
         Ok(Written::Done)
     }

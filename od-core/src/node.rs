@@ -20,11 +20,11 @@ use crate::guarding::Guarding;
 use crate::heartbeat::{send_error_control, Heartbeat};
 use crate::lss::{self, Lss, LssEvent};
 use crate::nmt::{NmtCommand, NmtRequest, NmtState};
-use crate::od::{CoreHook, Group, Hook};
+use crate::od::{CoreHook, Group, Hook, Od};
 use crate::pdo::{self, PdoEvent, Pdos, RtrAnswer, RtrReply};
 use crate::sdo::SdoServer;
 use crate::shell::{DeviceStation, Station};
-use crate::storage::{self, Image, Loaded, Record};
+use crate::storage::{self, Image, Loaded, Record, Storage};
 use crate::time::{earliest, Due, Instant};
 use crate::wire::nmt::{self as nmt_wire, ErrorControl};
 
@@ -151,34 +151,37 @@ impl<D: CanopenDevice> Node<D> {
 
     #[inline(never)]
     fn power_on(device: D, loaded: &Loaded, fallback_node_id: u8) -> Node<D> {
-        let (od, storage, node_id) =
-            storage::power_on_as(device.table(), device.factory_node_id(), loaded, fallback_node_id);
-        let pending = pending_bitrate(&device, &od);
-        let scan = match pending {
-            None if storage::pending(&od, CoreHook::PendingBitrate).is_some() => Scan::new(device.auto_bitrates()),
-            _ => None,
-        };
-        let bitrate = pending.or(scan.map(|s| s.rate())).unwrap_or(Bitrate::K500);
-        let mut sdo = SdoServer::new();
-        sdo.set_expedited_only(device.sdo_expedited_only());
+        // Built where it lives: the dictionary and the storage are filled in place
+        // (`storage::power_on_in`), not assembled in locals and copied into the node.
+        let od = Od::blank(device.table(), device.factory_node_id());
         let lss = Lss::new(&od, device.has_lss(), device.bitrate_codes());
-        let mut ctx = Context::new(od, storage, node_id, bitrate);
-        ctx.errors.announce_with(emcy::frame);
-        ctx.errors.set_gate(emcy::gate(NmtState::Initialising));
         let mut node = Node {
-            ctx,
+            ctx: Context::new(od, Storage::empty(loaded), 0, Bitrate::K500),
             device,
             nmt: NmtState::Initialising,
-            sdo,
+            sdo: SdoServer::new(),
             heartbeat: Heartbeat::default(),
             guarding: Guarding::default(),
-            pdo: Pdos::default(),
+            pdo: fresh(),
             lss,
-            scan,
+            scan: None,
             filter: (RxFilter::OPEN, 0),
             sync_key: u32::MAX,
             due: Due::default(),
         };
+        let ctx = &mut node.ctx;
+        ctx.node_id = storage::power_on_in(&mut ctx.od, &mut ctx.storage, loaded, fallback_node_id);
+        let device = &node.device;
+        let pending = pending_bitrate(device, &ctx.od);
+        let scan = match pending {
+            None if storage::pending(&ctx.od, CoreHook::PendingBitrate).is_some() => Scan::new(device.auto_bitrates()),
+            _ => None,
+        };
+        ctx.bitrate = pending.or(scan.map(|s| s.rate())).unwrap_or(Bitrate::K500);
+        node.scan = scan;
+        node.sdo.set_expedited_only(device.sdo_expedited_only());
+        node.ctx.errors.announce_with(emcy::frame);
+        node.ctx.errors.set_gate(emcy::gate(NmtState::Initialising));
         node.rebuild_filter();
         node.notify();
         node
@@ -675,6 +678,13 @@ impl<D: CanopenDevice> Node<D> {
         self.filter.1 = !self.rx_ids_generation();
         (&mut self.ctx, &mut self.nmt, &mut self.pdo)
     }
+}
+
+/// `T::default()` out of line: built straight into the field it goes to, not in a temporary
+/// that is then copied (a large default such as the PDOs').
+#[inline(never)]
+fn fresh<T: Default>() -> T {
+    T::default()
 }
 
 /// Sets the entries that no parameter group stores and whose default is "base + node-ID" to

@@ -778,8 +778,9 @@ pub struct Od {
 impl Od {
     /// Builds the dictionary with every value at its default for `node_id`.
     ///
-    /// Panics (at start-up, never on the bus) if the table is unsorted or too large: a
-    /// declaration bug every device test catches.
+    /// Panics (at start-up, never on the bus) if the table is too large, and in debug builds
+    /// if it is unsorted: declaration bugs every device test catches (the device tables'
+    /// order is checked at compile time, by `devices::comm::join`).
     pub fn new(table: &'static [Entry], node_id: u8) -> Od {
         Od::with_factory_node_id(table, node_id, None)
     }
@@ -788,15 +789,24 @@ impl Od {
     /// table's declared one: the default of the entry marked [`Entry::factory_node_id`] (the
     /// SGH50 redundant version's second encoder: 2). `None` keeps the declared default.
     pub fn with_factory_node_id(table: &'static [Entry], node_id: u8, factory: Option<u8>) -> Od {
+        let mut od = Od::blank(table, factory);
+        od.load_defaults(|_| true, node_id);
+        od
+    }
+
+    /// The dictionary of `table` for the variant with factory node-ID `factory` (as
+    /// [`Od::with_factory_node_id`]) with every value 0: what a power-on fills in place
+    /// ([`Od::load_defaults`], then the stored values).
+    pub(crate) fn blank(table: &'static [Entry], factory: Option<u8>) -> Od {
         assert!(table.len() <= MAX_ENTRIES, "dictionary larger than MAX_ENTRIES");
-        assert!(
+        // The device tables are built by `devices::comm::join`, which checks the order when
+        // it is evaluated (at compile time); the unit tests' own tables are checked here, in
+        // debug builds (the firmware carries no second check).
+        debug_assert!(
             table.windows(2).all(|w| (w[0].index, w[0].sub) < (w[1].index, w[1].sub)),
             "dictionary not sorted by (index, sub)"
         );
-        let factory = factory.unwrap_or(0);
-        let mut od = Od { table, lookup: Lookup::new(table), values: [0; MAX_ENTRIES], factory };
-        od.load_defaults(|_| true, node_id);
-        od
+        Od { table, lookup: Lookup::new(table), values: [0; MAX_ENTRIES], factory: factory.unwrap_or(0) }
     }
 
     /// The declarations.

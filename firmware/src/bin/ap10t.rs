@@ -6,12 +6,15 @@
 
 use defmt_rtt as _;
 use embassy_executor::Spawner;
-use od_core::devices::ap10t::Ap10t;
+use od_core::devices::ap10t::{table::TABLE, Ap10t};
 use panic_probe as _;
+
+/// The identity this device's parameter images carry, computed when the image is built.
+const IDENTITY: u32 = od_core::storage::identity(TABLE);
 
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
     firmware::boot_time::start();
     let board = boards::ap10t::take();
-    firmware::run::run(Ap10t::new(), board.mcu, board.io).await
+    firmware::run::run(Ap10t::new(), IDENTITY, board.mcu, board.io).await
 }

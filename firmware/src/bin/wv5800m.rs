@@ -6,7 +6,7 @@
 
 use defmt_rtt as _;
 use embassy_executor::Spawner;
-use od_core::devices::wv5800m::{Model, Turns, Variant, Wv5800m};
+use od_core::devices::wv5800m::{table_of, Model, Turns, Variant, Wv5800m};
 use panic_probe as _;
 
 #[cfg(any(
@@ -30,9 +30,12 @@ const VARIANT: Variant = Variant {
     },
 };
 
+/// The identity this device's parameter images carry, computed when the image is built.
+const IDENTITY: u32 = od_core::storage::identity(table_of(VARIANT));
+
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
     firmware::boot_time::start();
     let board = boards::wv5800m::take(VARIANT);
-    firmware::run::run(Wv5800m::new(VARIANT), board.mcu, board.io).await
+    firmware::run::run(Wv5800m::new(VARIANT), IDENTITY, board.mcu, board.io).await
 }

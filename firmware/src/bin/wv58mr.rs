@@ -29,6 +29,9 @@ const TURNS: Turns = if cfg!(feature = "singleturn") {
     Turns::Multi12
 };
 
+/// The identity this device's parameter images carry, computed when the image is built.
+const IDENTITY: u32 = od_core::storage::identity(table_of(TURNS));
+
 #[embassy_executor::main]
 async fn main(_spawner: Spawner) {
     firmware::boot_time::start();
@@ -36,7 +39,7 @@ async fn main(_spawner: Spawner) {
     let device = Wv58mr::new(TURNS);
     firmware::run::drive(
         board.mcu,
-        table_of(TURNS),
+        IDENTITY,
         |params, uid| firmware::run::boot_j1939(device, params, uid),
         board.io,
     )

@@ -40,7 +40,7 @@ use crate::led::{Leds, WARNING_LIMIT};
 use crate::od::{CoreHook, Od};
 use crate::sdo::SdoServer;
 use crate::shell::{DeviceStation, RxIds, RxMasks, Station};
-use crate::storage::{self, Loaded};
+use crate::storage::{self, Loaded, Storage};
 use crate::time::{earliest, Due, Instant};
 use crate::wire::j1939::{Address, Emcy, Epos, Espd, Identifier, Name, NameFields, Pgn, Priority, ProprietaryB};
 
@@ -151,15 +151,13 @@ impl<D: J1939Device> J1939Node<D> {
     /// it (`storage::ParamFlash::load`): its address and bit rate are the stored 5F0Ah ones
     /// (the defaults on a blank flash). Claiming starts at the first [`J1939Node::poll`].
     pub fn boot(device: D, loaded: &Loaded) -> J1939Node<D> {
-        let table = device.table();
-        let (od, storage, address) = storage::power_on(table, loaded, 0xFE);
-        let bitrate = pending_bitrate(&device, &od).unwrap_or(Bitrate::K250);
-        let (lo, hi) = address_range(&od);
+        // Built where it lives: the dictionary and the storage are filled in place.
+        let od = Od::blank(device.table(), None);
         let mut node = J1939Node {
-            ctx: Context::new(od, storage, address, bitrate),
+            ctx: Context::new(od, Storage::empty(loaded), 0, Bitrate::K250),
             device,
             sdo: SdoServer::new(),
-            claim: AddressClaimer::new(Name::from_raw(0), Address(address), lo, hi),
+            claim: AddressClaimer::new(Name::from_raw(0), Address(0), 0, 0),
             cyclic: Scheduler::new([
                 Cyclic::new(Pgn::PROPRIETARY_B, 0, Priority::DEFAULT),
                 Cyclic::new(Pgn::ESPD, 0, Priority::DEFAULT),
@@ -175,6 +173,11 @@ impl<D: J1939Device> J1939Node<D> {
             due: Due::default(),
             pgn_pos: [(None, None); 3],
         };
+        let ctx = &mut node.ctx;
+        let address = storage::power_on_in(&mut ctx.od, &mut ctx.storage, loaded, 0xFE);
+        ctx.node_id = address;
+        ctx.bitrate = pending_bitrate(&node.device, &ctx.od).unwrap_or(Bitrate::K250);
+        let (lo, hi) = address_range(&ctx.od);
         let od = &node.ctx.od;
         for (k, &(_, cycle, prio)) in PGN_PARAMETERS.iter().enumerate() {
             let at = |sub| od.pos(0x3000, sub).map(|p| p as u8);

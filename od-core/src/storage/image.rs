@@ -451,19 +451,31 @@ pub enum DecodeError {
 /// The device identity an image is bound to: CRC-32 of the device type (1000h), vendor-ID and
 /// product code (1018h.01/.02) and device name (1008h) as declared. The dictionary's layout is
 /// deliberately not part of it, so that images survive firmware updates.
-pub fn identity(table: &[Entry]) -> u32 {
+///
+/// A `const fn`: the firmware computes its image's identity at compile time.
+pub const fn identity(table: &[Entry]) -> u32 {
     // Each key as the CRC digests it: index (little-endian), sub-index.
-    static KEYS: [[u8; 3]; 4] = [[0x00, 0x10, 0], [0x18, 0x10, 1], [0x18, 0x10, 2], [0x08, 0x10, 0]];
+    const KEYS: [[u8; 3]; 4] = [[0x00, 0x10, 0], [0x18, 0x10, 1], [0x18, 0x10, 2], [0x08, 0x10, 0]];
     let mut crc = Crc32::new();
-    for k in &KEYS {
-        if let Some(e) = table.iter().find(|e| {
-            let [lo, hi] = e.index.to_le_bytes();
-            [lo, hi, e.sub] == *k
-        }) {
-            crc.update(k);
-            let value = e.default_value(0).to_le_bytes();
-            crc.update(e.string_value().unwrap_or(&value));
+    let mut k = 0;
+    while k < KEYS.len() {
+        let key = &KEYS[k];
+        let (index, sub) = (u16::from_le_bytes([key[0], key[1]]), key[2]);
+        let mut i = 0;
+        // The first entry with the key, if declared.
+        while i < table.len() && !(table[i].index == index && table[i].sub == sub) {
+            i += 1;
         }
+        if i < table.len() {
+            let e = &table[i];
+            crc = crc.digest(key);
+            let value = e.default_value(0).to_le_bytes();
+            crc = crc.digest(match e.string_value() {
+                Some(s) => s,
+                None => &value,
+            });
+        }
+        k += 1;
     }
     crc.finish()
 }
@@ -568,6 +580,38 @@ mod tests {
         ];
         assert_ne!(identity(sgh10::TABLE), identity(OTHER));
         assert_eq!(identity(sgh10::TABLE), identity(sgh10::TABLE));
+    }
+
+    /// The identity as it was computed before it became a `const fn` (a search of the table
+    /// per key, the CRC fed piece by piece): every image already on a device carries it.
+    fn identity_by_search(table: &[Entry]) -> u32 {
+        let mut crc = Crc32::new();
+        for k in [[0x00, 0x10, 0], [0x18, 0x10, 1], [0x18, 0x10, 2], [0x08, 0x10, 0]] {
+            if let Some(e) = table.iter().find(|e| [e.index.to_le_bytes()[0], e.index.to_le_bytes()[1], e.sub] == k) {
+                crc.update(&k);
+                let value = e.default_value(0).to_le_bytes();
+                crc.update(e.string_value().unwrap_or(&value));
+            }
+        }
+        crc.finish()
+    }
+
+    #[test]
+    fn identity_at_compile_time_is_the_one_images_carry() {
+        use crate::devices::{ap10t, sgh50, wv5800m, wv58mr};
+        use wv5800m::{Model, Turns, Variant};
+        const SGH10: u32 = identity(sgh10::TABLE);
+        assert_eq!(SGH10, identity_by_search(sgh10::TABLE));
+        for table in [sgh10::TABLE, sgh50::TABLE, ap10t::table::TABLE] {
+            assert_eq!(identity(table), identity_by_search(table));
+        }
+        for turns in [Turns::Single, Turns::Multi4, Turns::Multi8, Turns::Multi12] {
+            for model in [Model::Wv, Model::Wh] {
+                let table = wv5800m::table_of(Variant { model, turns });
+                assert_eq!(identity(table), identity_by_search(table));
+            }
+            assert_eq!(identity(wv58mr::table_of(turns)), identity_by_search(wv58mr::table_of(turns)));
+        }
     }
 
     #[test]

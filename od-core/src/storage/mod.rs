@@ -174,53 +174,67 @@ impl Storage {
 
 /// The dictionary and storage state a node powers on with. The node-ID the "+ node-ID"
 /// defaults use is the stored pending node-ID (or its default), or `fallback` when the
-/// dictionary has no pending node-ID entry. Returns them with that node-ID.
+/// dictionary has no pending node-ID entry. Returns them with that node-ID. (The nodes build
+/// theirs in place, [`power_on_in`]; the unit tests build a context with this.)
 ///
 /// Panics (at start-up, never on the bus) if the dictionary declares more than
 /// [`MAX_STORED`] user-stored entries: a declaration bug every device test catches.
+#[cfg(test)]
 pub(crate) fn power_on(table: &'static [Entry], loaded: &Loaded, fallback: u8) -> (Od, Storage, u8) {
-    power_on_as(table, None, loaded, fallback)
+    let mut od = Od::blank(table, None);
+    let mut storage = Storage::empty(loaded);
+    let node_id = power_on_in(&mut od, &mut storage, loaded, fallback);
+    (od, storage, node_id)
 }
 
-/// [`power_on`] for a device variant that ships with node-ID `factory` rather than the
-/// table's declared one ([`Od::with_factory_node_id`]).
-pub(crate) fn power_on_as(
-    table: &'static [Entry],
-    factory: Option<u8>,
-    loaded: &Loaded,
-    fallback: u8,
-) -> (Od, Storage, u8) {
+impl Storage {
+    /// No user-stored entry yet, nothing to restore or save; the fault says whether `loaded`
+    /// found the flash unusable. What [`power_on_in`] fills.
+    pub(crate) fn empty(loaded: &Loaded) -> Storage {
+        Storage {
+            slots: [0; MAX_STORED],
+            count: 0,
+            stored: [0; MAX_STORED],
+            at_default: [0; MAX_STORED / 32],
+            restore: GroupMask::default(),
+            captured_id: None,
+            saving: None,
+            fault: matches!(loaded, Loaded::Invalid),
+        }
+    }
+}
+
+/// The dictionary and storage state a node powers on with, filled in place (the node is built
+/// where it lives, not assembled in locals and copied): the blank dictionary `od`
+/// ([`Od::blank`], the variant's factory node-ID in it) gets every default, then the values
+/// `loaded` holds; the empty `storage` ([`Storage::empty`]) the user-stored entries and their
+/// stored values. The node-ID the "+ node-ID" defaults use is the stored pending node-ID (or
+/// its default), or `fallback` when the dictionary has no pending node-ID entry; returned.
+///
+/// Panics (at start-up, never on the bus) if the dictionary declares more than
+/// [`MAX_STORED`] user-stored entries: a declaration bug every device test catches.
+#[inline(never)]
+pub(crate) fn power_on_in(od: &mut Od, storage: &mut Storage, loaded: &Loaded, fallback: u8) -> u8 {
+    let table = od.table();
     let image = loaded.image();
     let node_id = table
         .iter()
         .find(|e| e.hook == Hook::Core(CoreHook::PendingNodeId))
-        .map(|e| image.and_then(|i| i.value_for(e)).unwrap_or(e.default_value_in(0, factory.unwrap_or(0))) as u8)
+        .map(|e| image.and_then(|i| i.value_for(e)).unwrap_or(od.default_of(e, 0)) as u8)
         .unwrap_or(fallback);
-    let mut od = Od::with_factory_node_id(table, node_id, factory);
-    let mut storage = Storage {
-        slots: [0; MAX_STORED],
-        count: 0,
-        stored: [0; MAX_STORED],
-        at_default: [0; MAX_STORED / 32],
-        restore: GroupMask::default(),
-        captured_id: None,
-        saving: None,
-        fault: matches!(loaded, Loaded::Invalid),
-    };
-    // One walk of the table: the stored values into the dictionary, the user-stored entries'
-    // positions into the slots.
+    // One walk of the table: the stored value or else the default into the dictionary, the
+    // user-stored entries' positions into the slots.
     for (pos, e) in table.iter().enumerate() {
-        if let Some(v) = image.and_then(|i| i.value_for(e)) {
-            od.set(pos, v);
-        }
+        let value = image.and_then(|i| i.value_for(e));
+        od.set(pos, value.unwrap_or_else(|| od.default_of(e, node_id)));
         if is_user(e) {
             // MAX_ENTRIES (160) positions fit a byte; slot MAX_STORED panics.
             storage.slots[storage.count] = pos as u8;
             storage.count += 1;
         }
     }
-    storage.capture(&od, node_id, None);
-    (od, storage, node_id)
+    storage.capture(od, node_id, None);
+    node_id
 }
 
 /// The value of the entry hooked `hook` (the pending node-ID or bit-rate code), if declared.
@@ -228,9 +242,12 @@ pub fn pending(od: &Od, hook: CoreHook) -> Option<u32> {
     od.table().iter().position(|e| e.hook == Hook::Core(hook)).map(|pos| od.get(pos))
 }
 
-/// The group mask a 1010h/1011h sub-index selects.
-pub(crate) fn group_of(od: &Od, pos: usize) -> Result<GroupMask, Abort> {
-    GroupMask::from_subindex(od.entry(pos).sub).ok_or(Abort::CANNOT_STORE)
+/// The group mask a 1010h/1011h sub-index selects (`None`: the sub-index selects none, which
+/// the caller answers 08000020h). An `Option` of one byte comes back in a register, where a
+/// `Result` with the abort code would go through memory.
+#[inline]
+pub(crate) fn group_of(od: &Od, pos: usize) -> Option<GroupMask> {
+    GroupMask::from_subindex(od.entry(pos).sub)
 }
 
 impl Storage {
