@@ -53,6 +53,15 @@ pub const PROVIDED: [Pgn; 3] = [Pgn::EPOS, Pgn::ESPD, Pgn::PROPRIETARY_B];
 /// The 3000h sub-indices of each provided group: (cycle time, priority).
 const PGN_PARAMETERS: [(Pgn, u8, u8); 3] = [(Pgn::PROPRIETARY_B, 1, 4), (Pgn::ESPD, 2, 5), (Pgn::EPOS, 3, 6)];
 
+// `J1939Node::sync_slots` finds slot k's sub-indices at k + 1 and k + 4.
+const _: () = {
+    let mut k = 0;
+    while k < PGN_PARAMETERS.len() {
+        assert!(PGN_PARAMETERS[k].1 as usize == k + 1 && PGN_PARAMETERS[k].2 as usize == k + 4);
+        k += 1;
+    }
+};
+
 /// A command a device asks its J1939 node to carry out after the answer to the write that
 /// gave it (the WV58MR's 3002h).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -70,6 +79,14 @@ pub trait J1939Device: Device {
     /// The command the last write gave, if any (taken once).
     fn take_command(&mut self) -> Option<Command> {
         None
+    }
+
+    /// The 3000h sub-indices whose value the writes since the last call may have changed, as
+    /// bits (bit n: 3000h.n; a write of an entry linked to one counts as a write of it), taken
+    /// once; the node reads the cyclic groups' cycle times and priorities of those back into
+    /// its scheduler after every CAM21 write. The default: all of them.
+    fn take_schedule_changes(&mut self) -> u8 {
+        u8::MAX
     }
 
     /// Is the maximum speed exceeded (the yellow LED)?
@@ -295,8 +312,10 @@ impl<D: J1939Device> J1939Node<D> {
         // Only a write can change the cycle times and priorities the scheduler follows (3000h,
         // and 6200h linked to it): an expedited one with its initiate download (001b in the
         // command's top bits), a segmented one with its download segments (000b, the last one writes; D-J1939-28).
+        // The device says which 3000h entries the write changed: only their groups are read back.
         if data.first().is_some_and(|cs| cs >> 5 <= 1) {
-            self.sync_schedule(now);
+            let changed = self.device.take_schedule_changes();
+            self.sync_slots(changed, now);
         }
         match self.device.take_command() {
             Some(Command::InitialiseSae) => self.restart_claim(now),
@@ -417,8 +436,21 @@ impl<D: J1939Device> J1939Node<D> {
 
     /// The scheduler takes the cycle times and priorities the dictionary holds (3000h).
     fn sync_schedule(&mut self, now: Instant) {
-        // The scheduler's slots are in the order of PGN_PARAMETERS (`boot`).
-        for (k, &(cycle, prio)) in self.pgn_pos.iter().enumerate() {
+        self.sync_slots(u8::MAX, now);
+    }
+
+    /// The scheduler takes the cycle time and priority the dictionary holds for each group
+    /// whose 3000h cycle-time or priority sub-index has its bit set in `changed` (bit n:
+    /// 3000h.n); the others stay as they are.
+    fn sync_slots(&mut self, changed: u8, now: Instant) {
+        // Slot k's cycle time is 3000h.(k + 1), its priority 3000h.(k + 4) (PGN_PARAMETERS).
+        let mut slots = (changed >> 1 | changed >> 4) & 0b111;
+        while slots != 0 {
+            let k = slots.trailing_zeros() as usize;
+            slots &= slots - 1;
+            let Some(&(cycle, prio)) = self.pgn_pos.get(k) else {
+                break;
+            };
             let od = &self.ctx.od;
             let c = cycle.map_or(0, |pos| od.get(pos as usize)) as u16;
             let p = prio.map_or(6, |pos| od.get(pos as usize)) as u8;

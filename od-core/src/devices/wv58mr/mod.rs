@@ -36,6 +36,9 @@ pub struct Wv58mr {
     turns: Turns,
     encoder: Wv5800m,
     command: Option<Command>,
+    /// The 3000h sub-indices written since the node last asked, as bits (bit n: 3000h.n;
+    /// 6200h counts as 3000h.03).
+    schedule_changes: u8,
     /// The address claimer's state as the node last told it.
     claim: State,
 }
@@ -49,6 +52,7 @@ impl Wv58mr {
             turns,
             encoder: Wv5800m::with_table(Variant { model: Model::Wv, turns }, table_of(turns), &table::ENCODER_ENTRIES),
             command: None,
+            schedule_changes: 0,
             claim: State::Off,
         }
     }
@@ -119,13 +123,16 @@ impl Device for Wv58mr {
             // 6200h and 3000h.03: one value (D-J1939-14).
             hooks::CYCLE_TIMER => {
                 ctx.od.set(table::ENTRIES_OF_MR.position_cycle as usize, value);
+                self.schedule_changes |= 1 << 3;
             }
-            hooks::PGN_CYCLE if ctx.od.entry(pos).sub == 3 => {
-                ctx.od.set(table::ENTRIES_OF_MR.position_cycle as usize, value);
-                ctx.od.set(table::ENCODER_ENTRIES.cycle_timer as usize, value);
+            // The transport reads the cycle times and priorities written back after the write.
+            hooks::PGN_CYCLE | hooks::PGN_PRIORITY => {
+                let sub = ctx.od.entry(pos).sub;
+                if sub == 3 {
+                    ctx.od.set(table::ENCODER_ENTRIES.cycle_timer as usize, value);
+                }
+                self.schedule_changes |= 1 << (sub & 7);
             }
-            // The transport reads the cycle times and priorities after the write.
-            hooks::PGN_CYCLE | hooks::PGN_PRIORITY => {}
             hooks::SAE_INIT => self.command = Some(Command::InitialiseSae),
             hooks::RESTART => self.command = Some(Command::Restart),
             _ => return self.encoder.on_write(ctx, pos, value, now),
@@ -135,6 +142,7 @@ impl Device for Wv58mr {
 
     fn on_reset(&mut self, ctx: &mut Context, kind: ResetKind, now: Instant) {
         self.command = None;
+        self.schedule_changes = 0;
         self.start(ctx);
         self.encoder.on_reset(ctx, kind, now);
     }
@@ -151,6 +159,10 @@ impl Device for Wv58mr {
 impl J1939Device for Wv58mr {
     fn take_command(&mut self) -> Option<Command> {
         self.command.take()
+    }
+
+    fn take_schedule_changes(&mut self) -> u8 {
+        core::mem::take(&mut self.schedule_changes)
     }
 
     fn over_speed(&self) -> bool {
