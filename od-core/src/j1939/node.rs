@@ -265,25 +265,36 @@ impl<D: J1939Device> J1939Node<D> {
         self.dispatch(frame, now);
     }
 
+    /// A CAM21 request from `requester` to `da`: served if it is to our address, from a
+    /// unicast one, with 8 bytes (what `param::requester` checks on a parsed identifier).
+    #[inline(never)]
+    fn cam21(&mut self, frame: &Frame, da: Address, requester: Address, now: Instant) {
+        self.due.forget();
+        let data = frame.payload();
+        if let Some(sa) = self.claim.source_address() {
+            if da == sa && requester.is_unicast() && data.len() == 8 {
+                self.serve(data, requester, sa, now);
+            }
+        }
+    }
+
     /// A frame the node may act on.
     #[inline(never)]
     fn dispatch(&mut self, frame: &Frame, now: Instant) {
         // A CAM21 request (EDP, DP and PF 006h, any priority, a valid 29-bit identifier) is
         // neither a claim nor a Request: it goes to the parameter access straight off the raw
-        // identifier, with the checks `param::requester` makes.
-        if let (CanId::Ext(raw), false) = (frame.id, frame.rtr) {
-            if raw & 0xE3FF_0000 == Pgn::CAM21.raw() << 8 {
-                self.due.forget();
-                let (da, requester) = (Address((raw >> 8) as u8), Address(raw as u8));
-                let data = frame.payload();
-                if let Some(sa) = self.claim.source_address() {
-                    if da == sa && requester.is_unicast() && data.len() == 8 {
-                        self.serve(data, requester, sa, now);
-                    }
-                }
-                return;
+        // identifier.
+        match frame.id {
+            CanId::Ext(raw) if raw & 0xE3FF_0000 == Pgn::CAM21.raw() << 8 && !frame.rtr => {
+                self.cam21(frame, Address((raw >> 8) as u8), Address(raw as u8), now)
             }
+            _ => self.dispatch_parsed(frame, now),
         }
+    }
+
+    /// A frame the node may act on other than a CAM21 request: its identifier parsed.
+    #[inline(never)]
+    fn dispatch_parsed(&mut self, frame: &Frame, now: Instant) {
         let Ok(id) = Identifier::from_frame(frame) else {
             return;
         };

@@ -94,6 +94,29 @@ impl Wv58mr {
         od.set(at.identity as usize, NameFields::identity_from_serial(serial));
         crate::encoder::merge_linked(od, at.position_cycle as usize, table::ENCODER_ENTRIES.cycle_timer as usize);
     }
+
+    /// 6003h: writing the calibration value calibrates (out of the write hook's line, which
+    /// the cyclic groups' parameters take).
+    #[inline(never)]
+    fn calibrate(&mut self, ctx: &mut Context, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        // §4.2: writing the calibration value calibrates, "position value = 0 +
+        // calibration value + application offset" at this instant (D-J1939-19).
+        let s = self.encoder.scaling(&ctx.od);
+        if value as i32 as i64 > s.largest() as i64 {
+            return Err(Abort::INVALID_VALUE);
+        }
+        let raw = self.encoder.raw().ok_or(Abort::NO_DATA)?;
+        ctx.od.set(table::ENCODER_ENTRIES.calibration as usize, s.calibrated_at(raw));
+        ctx.od.set(pos, value);
+        self.encoder.refresh(ctx, now);
+        Ok(())
+    }
+
+    /// The WV5800M's write rules (out of the write hook's line).
+    #[inline(never)]
+    fn encoder_write(&mut self, ctx: &mut Context, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        self.encoder.on_write(ctx, pos, value, now)
+    }
 }
 
 impl Device for Wv58mr {
@@ -108,18 +131,7 @@ impl Device for Wv58mr {
             return Ok(());
         };
         match hook {
-            hooks::PRESET => {
-                // §4.2: writing the calibration value calibrates, "position value = 0 +
-                // calibration value + application offset" at this instant (D-J1939-19).
-                let s = self.encoder.scaling(&ctx.od);
-                if value as i32 as i64 > s.largest() as i64 {
-                    return Err(Abort::INVALID_VALUE);
-                }
-                let raw = self.encoder.raw().ok_or(Abort::NO_DATA)?;
-                ctx.od.set(table::ENCODER_ENTRIES.calibration as usize, s.calibrated_at(raw));
-                ctx.od.set(pos, value);
-                self.encoder.refresh(ctx, now);
-            }
+            hooks::PRESET => return self.calibrate(ctx, pos, value, now),
             // 6200h and 3000h.03: one value (D-J1939-14).
             hooks::CYCLE_TIMER => {
                 ctx.od.set(table::ENTRIES_OF_MR.position_cycle as usize, value);
@@ -135,7 +147,7 @@ impl Device for Wv58mr {
             }
             hooks::SAE_INIT => self.command = Some(Command::InitialiseSae),
             hooks::RESTART => self.command = Some(Command::Restart),
-            _ => return self.encoder.on_write(ctx, pos, value, now),
+            _ => return self.encoder_write(ctx, pos, value, now),
         }
         Ok(())
     }
