@@ -265,29 +265,25 @@ impl<D: J1939Device> J1939Node<D> {
         self.dispatch(frame, now);
     }
 
-    /// A CAM21 request from `requester` to `da`: served if it is to our address, from a
-    /// unicast one, with 8 bytes (what `param::requester` checks on a parsed identifier).
+    /// A CAM21 message with identifier `raw`: served if it is a request to us
+    /// ([`param::cam21_requester`]).
     #[inline(never)]
-    fn cam21(&mut self, frame: &Frame, da: Address, requester: Address, now: Instant) {
+    fn cam21(&mut self, frame: &Frame, raw: u32, now: Instant) {
         self.due.forget();
         let data = frame.payload();
-        if let Some(sa) = self.claim.source_address() {
-            if da == sa && requester.is_unicast() && data.len() == 8 {
-                self.serve(data, requester, sa, now);
-            }
+        let own = self.claim.source_address();
+        if let (Some(requester), Some(sa)) = (param::cam21_requester(raw, data.len(), own), own) {
+            self.serve(data, requester, sa, now);
         }
     }
 
     /// A frame the node may act on.
     #[inline(never)]
     fn dispatch(&mut self, frame: &Frame, now: Instant) {
-        // A CAM21 request (EDP, DP and PF 006h, any priority, a valid 29-bit identifier) is
-        // neither a claim nor a Request: it goes to the parameter access straight off the raw
-        // identifier.
+        // A CAM21 request is neither a claim nor a Request: it goes to the parameter access
+        // straight off the raw identifier.
         match frame.id {
-            CanId::Ext(raw) if raw & 0xE3FF_0000 == Pgn::CAM21.raw() << 8 && !frame.rtr => {
-                self.cam21(frame, Address((raw >> 8) as u8), Address(raw as u8), now)
-            }
+            CanId::Ext(raw) if param::is_cam21(raw) && !frame.rtr => self.cam21(frame, raw, now),
             _ => self.dispatch_parsed(frame, now),
         }
     }
@@ -318,9 +314,7 @@ impl<D: J1939Device> J1939Node<D> {
             request::Response::Nack(f) => self.ctx.out.send(f),
             request::Response::Ignore | request::Response::AddressClaim => {}
         }
-        if let (Some(requester), Some(sa)) = (param::requester(&id, data.len(), own), own) {
-            self.serve(data, requester, sa, now);
-        }
+        // A CAM21 request never comes here (`dispatch`).
     }
 
     /// A CAM21 request from `requester` to us at `sa`.
