@@ -623,6 +623,51 @@ mod tests {
         }
     }
 
+    /// Every write of a cycle time or priority (3000h.01..06, and 6200h, which is 3000h.03)
+    /// reaches its group in the scheduler, expedited or segmented, and leaves the other groups
+    /// as the dictionary holds them: the scheduler reads back only the groups the write named.
+    #[test]
+    fn each_cycle_and_priority_write_reaches_its_group() {
+        let mut node = J1939Node::boot(Wv58mr::new(Turns::Multi12), &Loaded::Blank);
+        let mut t = 0;
+        while node.source_address().is_none() {
+            node.poll(Instant::from_millis(t));
+            t += 1;
+        }
+        let me = node.source_address().unwrap_or(Address(0xEF));
+        let client = Address(0x20);
+        let expect = |node: &J1939Node<Wv58mr>| {
+            PGN_PARAMETERS.map(|(pgn, c, p)| {
+                let v = |sub| node.ctx.od.value(0x3000, sub).unwrap_or(0);
+                (pgn, Some((v(c) as u16, Priority::new(v(p) as u8).unwrap_or(Priority::DEFAULT))))
+            })
+        };
+        let writes =
+            [(0x3000, 1, 120), (0x3000, 2, 70), (0x3000, 3, 90), (0x3000, 4, 2), (0x3000, 5, 1), (0x3000, 6, 7)];
+        for (n, &(index, sub, value)) in writes.iter().chain(&[(0x6200, 0, 40)]).enumerate() {
+            let now = Instant::from_millis(t + n as u64);
+            let (segmented, len) = (n % 2 == 1, if sub >= 4 { 1 } else { 2 });
+            if segmented {
+                // Initiate with the size, then one last segment with `len` bytes.
+                let init = [0x21, index as u8, (index >> 8) as u8, sub, len, 0, 0, 0];
+                let last = [(7 - len) << 1 | 1, value as u8, (value >> 8) as u8, 0, 0, 0, 0, 0];
+                for d in [init, last] {
+                    node.on_frame(&Identifier::pdu1(Priority::DEFAULT, Pgn::CAM21, me, client).unwrap().frame(&d), now);
+                }
+            } else {
+                let f =
+                    CamRequest::Write { index, sub, value, len: Some(if sub >= 4 { 1 } else { 2 }) }.frame(me, client);
+                node.on_frame(&f, now);
+            }
+            while node.next_output().is_some() {}
+            let value_now = node.ctx.od.value(index, sub);
+            assert_eq!(value_now, Some(value), "{index:04X}h.{sub:02X} not written");
+            let got = PGN_PARAMETERS.map(|(pgn, ..)| (pgn, node.cyclic.get(pgn)));
+            assert_eq!(got, expect(&node), "after {index:04X}h.{sub:02X} := {value}");
+        }
+        assert_eq!(node.ctx.od.value(0x3000, 3), Some(40), "6200h is 3000h.03");
+    }
+
     /// A poll before the remembered deadline does exactly what a full poll does: two nodes get
     /// the same random frames, bus events, samples and polls; one forgets its deadline before
     /// every poll; their outputs and deadlines never differ.
