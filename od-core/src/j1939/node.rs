@@ -53,6 +53,15 @@ pub const PROVIDED: [Pgn; 3] = [Pgn::EPOS, Pgn::ESPD, Pgn::PROPRIETARY_B];
 /// The 3000h sub-indices of each provided group: (cycle time, priority).
 const PGN_PARAMETERS: [(Pgn, u8, u8); 3] = [(Pgn::PROPRIETARY_B, 1, 4), (Pgn::ESPD, 2, 5), (Pgn::EPOS, 3, 6)];
 
+// `J1939Node::sync_slots` finds slot k's sub-indices at k + 1 and k + 4.
+const _: () = {
+    let mut k = 0;
+    while k < PGN_PARAMETERS.len() {
+        assert!(PGN_PARAMETERS[k].1 as usize == k + 1 && PGN_PARAMETERS[k].2 as usize == k + 4);
+        k += 1;
+    }
+};
+
 /// A command a device asks its J1939 node to carry out after the answer to the write that
 /// gave it (the WV58MR's 3002h).
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -70,6 +79,14 @@ pub trait J1939Device: Device {
     /// The command the last write gave, if any (taken once).
     fn take_command(&mut self) -> Option<Command> {
         None
+    }
+
+    /// The 3000h sub-indices whose value the writes since the last call may have changed, as
+    /// bits (bit n: 3000h.n; a write of an entry linked to one counts as a write of it), taken
+    /// once; the node reads the cyclic groups' cycle times and priorities of those back into
+    /// its scheduler after every CAM21 write. The default: all of them.
+    fn take_schedule_changes(&mut self) -> u8 {
+        u8::MAX
     }
 
     /// Is the maximum speed exceeded (the yellow LED)?
@@ -251,9 +268,32 @@ impl<D: J1939Device> J1939Node<D> {
         self.dispatch(frame, now);
     }
 
+    /// A CAM21 message with identifier `raw`: served if it is a request to us
+    /// ([`param::cam21_requester`]).
+    #[inline(never)]
+    fn cam21(&mut self, frame: &Frame, raw: u32, now: Instant) {
+        self.due.forget();
+        let data = frame.payload();
+        let own = self.claim.source_address();
+        if let (Some(requester), Some(sa)) = (param::cam21_requester(raw, data.len(), own), own) {
+            self.serve(data, requester, sa, now);
+        }
+    }
+
     /// A frame the node may act on.
     #[inline(never)]
     fn dispatch(&mut self, frame: &Frame, now: Instant) {
+        // A CAM21 request is neither a claim nor a Request: it goes to the parameter access
+        // straight off the raw identifier.
+        match frame.id {
+            CanId::Ext(raw) if param::is_cam21(raw) && !frame.rtr => self.cam21(frame, raw, now),
+            _ => self.dispatch_parsed(frame, now),
+        }
+    }
+
+    /// A frame the node may act on other than a CAM21 request: its identifier parsed.
+    #[inline(never)]
+    fn dispatch_parsed(&mut self, frame: &Frame, now: Instant) {
         let Ok(id) = Identifier::from_frame(frame) else {
             return;
         };
@@ -277,9 +317,7 @@ impl<D: J1939Device> J1939Node<D> {
             request::Response::Nack(f) => self.ctx.out.send(f),
             request::Response::Ignore | request::Response::AddressClaim => {}
         }
-        if let (Some(requester), Some(sa)) = (param::requester(&id, data.len(), own), own) {
-            self.serve(data, requester, sa, now);
-        }
+        // A CAM21 request never comes here (`dispatch`).
     }
 
     /// A CAM21 request from `requester` to us at `sa`.
@@ -298,8 +336,10 @@ impl<D: J1939Device> J1939Node<D> {
         // Only a write can change the cycle times and priorities the scheduler follows (3000h,
         // and 6200h linked to it): an expedited one with its initiate download (001b in the
         // command's top bits), a segmented one with its download segments (000b, the last one writes; D-J1939-28).
+        // The device says which 3000h entries the write changed: only their groups are read back.
         if data.first().is_some_and(|cs| cs >> 5 <= 1) {
-            self.sync_schedule(now);
+            let changed = self.device.take_schedule_changes();
+            self.sync_slots(changed, now);
         }
         match self.device.take_command() {
             Some(Command::InitialiseSae) => self.restart_claim(now),
@@ -420,8 +460,21 @@ impl<D: J1939Device> J1939Node<D> {
 
     /// The scheduler takes the cycle times and priorities the dictionary holds (3000h).
     fn sync_schedule(&mut self, now: Instant) {
-        // The scheduler's slots are in the order of PGN_PARAMETERS (`boot`).
-        for (k, &(cycle, prio)) in self.pgn_pos.iter().enumerate() {
+        self.sync_slots(u8::MAX, now);
+    }
+
+    /// The scheduler takes the cycle time and priority the dictionary holds for each group
+    /// whose 3000h cycle-time or priority sub-index has its bit set in `changed` (bit n:
+    /// 3000h.n); the others stay as they are.
+    fn sync_slots(&mut self, changed: u8, now: Instant) {
+        // Slot k's cycle time is 3000h.(k + 1), its priority 3000h.(k + 4) (PGN_PARAMETERS).
+        let mut slots = (changed >> 1 | changed >> 4) & 0b111;
+        while slots != 0 {
+            let k = slots.trailing_zeros() as usize;
+            slots &= slots - 1;
+            let Some(&(cycle, prio)) = self.pgn_pos.get(k) else {
+                break;
+            };
             let od = &self.ctx.od;
             let c = cycle.map_or(0, |pos| od.get(pos as usize)) as u16;
             let p = prio.map_or(6, |pos| od.get(pos as usize)) as u8;
@@ -571,6 +624,51 @@ mod tests {
             8 => Request { pgn: Pgn::ESPD }.frame(Address::GLOBAL, other),
             _ => CamRequest::Write { index: 0x6200, sub: 0, value: v % 100, len: Some(2) }.frame(me, other),
         }
+    }
+
+    /// Every write of a cycle time or priority (3000h.01..06, and 6200h, which is 3000h.03)
+    /// reaches its group in the scheduler, expedited or segmented, and leaves the other groups
+    /// as the dictionary holds them: the scheduler reads back only the groups the write named.
+    #[test]
+    fn each_cycle_and_priority_write_reaches_its_group() {
+        let mut node = J1939Node::boot(Wv58mr::new(Turns::Multi12), &Loaded::Blank);
+        let mut t = 0;
+        while node.source_address().is_none() {
+            node.poll(Instant::from_millis(t));
+            t += 1;
+        }
+        let me = node.source_address().unwrap_or(Address(0xEF));
+        let client = Address(0x20);
+        let expect = |node: &J1939Node<Wv58mr>| {
+            PGN_PARAMETERS.map(|(pgn, c, p)| {
+                let v = |sub| node.ctx.od.value(0x3000, sub).unwrap_or(0);
+                (pgn, Some((v(c) as u16, Priority::new(v(p) as u8).unwrap_or(Priority::DEFAULT))))
+            })
+        };
+        let writes =
+            [(0x3000, 1, 120), (0x3000, 2, 70), (0x3000, 3, 90), (0x3000, 4, 2), (0x3000, 5, 1), (0x3000, 6, 7)];
+        for (n, &(index, sub, value)) in writes.iter().chain(&[(0x6200, 0, 40)]).enumerate() {
+            let now = Instant::from_millis(t + n as u64);
+            let (segmented, len) = (n % 2 == 1, if sub >= 4 { 1 } else { 2 });
+            if segmented {
+                // Initiate with the size, then one last segment with `len` bytes.
+                let init = [0x21, index as u8, (index >> 8) as u8, sub, len, 0, 0, 0];
+                let last = [(7 - len) << 1 | 1, value as u8, (value >> 8) as u8, 0, 0, 0, 0, 0];
+                for d in [init, last] {
+                    node.on_frame(&Identifier::pdu1(Priority::DEFAULT, Pgn::CAM21, me, client).unwrap().frame(&d), now);
+                }
+            } else {
+                let f =
+                    CamRequest::Write { index, sub, value, len: Some(if sub >= 4 { 1 } else { 2 }) }.frame(me, client);
+                node.on_frame(&f, now);
+            }
+            while node.next_output().is_some() {}
+            let value_now = node.ctx.od.value(index, sub);
+            assert_eq!(value_now, Some(value), "{index:04X}h.{sub:02X} not written");
+            let got = PGN_PARAMETERS.map(|(pgn, ..)| (pgn, node.cyclic.get(pgn)));
+            assert_eq!(got, expect(&node), "after {index:04X}h.{sub:02X} := {value}");
+        }
+        assert_eq!(node.ctx.od.value(0x3000, 3), Some(40), "6200h is 3000h.03");
     }
 
     /// A poll before the remembered deadline does exactly what a full poll does: two nodes get

@@ -36,6 +36,9 @@ pub struct Wv58mr {
     turns: Turns,
     encoder: Wv5800m,
     command: Option<Command>,
+    /// The 3000h sub-indices written since the node last asked, as bits (bit n: 3000h.n;
+    /// 6200h counts as 3000h.03).
+    schedule_changes: u8,
     /// The address claimer's state as the node last told it.
     claim: State,
 }
@@ -49,6 +52,7 @@ impl Wv58mr {
             turns,
             encoder: Wv5800m::with_table(Variant { model: Model::Wv, turns }, table_of(turns), &table::ENCODER_ENTRIES),
             command: None,
+            schedule_changes: 0,
             claim: State::Off,
         }
     }
@@ -90,6 +94,29 @@ impl Wv58mr {
         od.set(at.identity as usize, NameFields::identity_from_serial(serial));
         crate::encoder::merge_linked(od, at.position_cycle as usize, table::ENCODER_ENTRIES.cycle_timer as usize);
     }
+
+    /// 6003h: writing the calibration value calibrates (out of the write hook's line, which
+    /// the cyclic groups' parameters take).
+    #[inline(never)]
+    fn calibrate(&mut self, ctx: &mut Context, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        // §4.2: writing the calibration value calibrates, "position value = 0 +
+        // calibration value + application offset" at this instant (D-J1939-19).
+        let s = self.encoder.scaling(&ctx.od);
+        if value as i32 as i64 > s.largest() as i64 {
+            return Err(Abort::INVALID_VALUE);
+        }
+        let raw = self.encoder.raw().ok_or(Abort::NO_DATA)?;
+        ctx.od.set(table::ENCODER_ENTRIES.calibration as usize, s.calibrated_at(raw));
+        ctx.od.set(pos, value);
+        self.encoder.refresh(ctx, now);
+        Ok(())
+    }
+
+    /// The WV5800M's write rules (out of the write hook's line).
+    #[inline(never)]
+    fn encoder_write(&mut self, ctx: &mut Context, pos: usize, value: u32, now: Instant) -> Result<(), Abort> {
+        self.encoder.on_write(ctx, pos, value, now)
+    }
 }
 
 impl Device for Wv58mr {
@@ -104,37 +131,30 @@ impl Device for Wv58mr {
             return Ok(());
         };
         match hook {
-            hooks::PRESET => {
-                // §4.2: writing the calibration value calibrates, "position value = 0 +
-                // calibration value + application offset" at this instant (D-J1939-19).
-                let s = self.encoder.scaling(&ctx.od);
-                if value as i32 as i64 > s.largest() as i64 {
-                    return Err(Abort::INVALID_VALUE);
-                }
-                let raw = self.encoder.raw().ok_or(Abort::NO_DATA)?;
-                ctx.od.set(table::ENCODER_ENTRIES.calibration as usize, s.calibrated_at(raw));
-                ctx.od.set(pos, value);
-                self.encoder.refresh(ctx, now);
-            }
+            hooks::PRESET => return self.calibrate(ctx, pos, value, now),
             // 6200h and 3000h.03: one value (D-J1939-14).
             hooks::CYCLE_TIMER => {
                 ctx.od.set(table::ENTRIES_OF_MR.position_cycle as usize, value);
+                self.schedule_changes |= 1 << 3;
             }
-            hooks::PGN_CYCLE if ctx.od.entry(pos).sub == 3 => {
-                ctx.od.set(table::ENTRIES_OF_MR.position_cycle as usize, value);
-                ctx.od.set(table::ENCODER_ENTRIES.cycle_timer as usize, value);
+            // The transport reads the cycle times and priorities written back after the write.
+            hooks::PGN_CYCLE | hooks::PGN_PRIORITY => {
+                let sub = ctx.od.entry(pos).sub;
+                if sub == 3 {
+                    ctx.od.set(table::ENCODER_ENTRIES.cycle_timer as usize, value);
+                }
+                self.schedule_changes |= 1 << (sub & 7);
             }
-            // The transport reads the cycle times and priorities after the write.
-            hooks::PGN_CYCLE | hooks::PGN_PRIORITY => {}
             hooks::SAE_INIT => self.command = Some(Command::InitialiseSae),
             hooks::RESTART => self.command = Some(Command::Restart),
-            _ => return self.encoder.on_write(ctx, pos, value, now),
+            _ => return self.encoder_write(ctx, pos, value, now),
         }
         Ok(())
     }
 
     fn on_reset(&mut self, ctx: &mut Context, kind: ResetKind, now: Instant) {
         self.command = None;
+        self.schedule_changes = 0;
         self.start(ctx);
         self.encoder.on_reset(ctx, kind, now);
     }
@@ -151,6 +171,10 @@ impl Device for Wv58mr {
 impl J1939Device for Wv58mr {
     fn take_command(&mut self) -> Option<Command> {
         self.command.take()
+    }
+
+    fn take_schedule_changes(&mut self) -> u8 {
+        core::mem::take(&mut self.schedule_changes)
     }
 
     fn over_speed(&self) -> bool {
