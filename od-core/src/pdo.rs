@@ -515,8 +515,11 @@ impl Pdos {
         while due != 0 {
             let t = &mut self.tpdo[due.trailing_zeros() as usize % MAX_TPDOS];
             due &= due - 1;
-            t.count += 1;
-            if t.count >= t.ttype {
+            // One store either way: the count restarts at the SYNC that sends.
+            let count = t.count + 1;
+            if count < t.ttype {
+                t.count = count;
+            } else {
                 t.count = 0;
                 let data = pack(&ctx.od, &t.map);
                 ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
