@@ -927,11 +927,13 @@ fn packed(od: &Od, map: &Mapping) -> [u8; 8] {
 fn pack(od: &Od, map: &Mapping) -> [u8; 8] {
     // Every value is written as four bytes at its place, resolved with the mapping: the bytes
     // past a value's length are overwritten by the next value or cleared below. A mapping
-    // holds at most 8 bytes, so every value starts at 0..=7.
-    let mut buf = [0u8; 12];
+    // holds at most 8 bytes, so every value starts at 0..=7 and the payload ends at 0..=8;
+    // the buffer has room for a value at any place below 16 (what a mask gives without a
+    // compare).
+    let mut buf = [0u8; 19];
     for s in map.slices() {
         let v = od.get(s.pos as usize).to_le_bytes();
-        let i = s.at as usize % 8;
+        let i = s.at as usize % 16;
         buf[i] = v[0];
         buf[i + 1] = v[1];
         buf[i + 2] = v[2];
@@ -940,7 +942,7 @@ fn pack(od: &Od, map: &Mapping) -> [u8; 8] {
     // Bytes past the payload are zero (`Frame::data` contract): the last value's bytes past
     // the payload's end (at most three) are cleared, the rest were never written. The
     // mapping's length is at most 8.
-    let end = (map.len as usize).min(8);
+    let end = map.len as usize % 16;
     buf[end] = 0;
     buf[end + 1] = 0;
     buf[end + 2] = 0;
