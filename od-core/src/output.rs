@@ -61,14 +61,26 @@ impl Outbox {
     /// the queue for several calls) is dropped and counted ([`Outbox::dropped`]), the oldest
     /// frames kept, as a full CAN transmit mailbox would; a [`Output::Store`] or
     /// [`Output::SetBitrate`] always has a slot of its own and is never dropped.
-    #[inline]
+    #[inline(always)]
     pub fn push(&mut self, out: Output) {
-        let len = self.len as usize;
-        let room = match out {
-            Output::Frame(_) => len < WORST_CALL_FRAMES,
-            Output::Store(_) | Output::SetBitrate(_) => len < OUTBOX_DEPTH,
+        let limit = match out {
+            Output::Frame(_) => WORST_CALL_FRAMES,
+            Output::Store(_) | Output::SetBitrate(_) => OUTBOX_DEPTH,
         };
-        if !room {
+        self.put(out, limit);
+    }
+
+    /// Queues a frame ([`Outbox::push`]), whose room test needs no look at the variant.
+    #[inline(always)]
+    pub fn send(&mut self, frame: Frame) {
+        self.put(Output::Frame(frame), WORST_CALL_FRAMES);
+    }
+
+    /// Queues `out` if fewer than `limit` outputs wait, else counts it dropped.
+    #[inline]
+    fn put(&mut self, out: Output, limit: usize) {
+        let len = self.len as usize;
+        if len >= limit {
             self.dropped = self.dropped.wrapping_add(1);
             return;
         }
@@ -78,12 +90,6 @@ impl Outbox {
         }
         self.q[at] = out;
         self.len += 1;
-    }
-
-    /// Queues a frame.
-    #[inline]
-    pub fn send(&mut self, frame: Frame) {
-        self.push(Output::Frame(frame));
     }
 
     /// Takes the oldest output.

@@ -114,12 +114,14 @@ pub enum PdoEvent {
 struct Slice {
     /// Dictionary position, [`NONE`] for a dummy (RPDO only: bytes skipped).
     pos: u8,
-    /// Bytes in the PDO (1..=4).
-    bytes: u8,
+    /// The first byte's place in the payload (0..=7): the bytes of the slices before. The
+    /// slice's own bytes (1..=4) run to the next slice's place, the last one's to the
+    /// mapping's length.
+    at: u8,
 }
 
 impl Slice {
-    const EMPTY: Slice = Slice { pos: NONE, bytes: 0 };
+    const EMPTY: Slice = Slice { pos: NONE, at: 0 };
 }
 
 /// A PDO's mapping resolved against the dictionary (equal to another when it maps the same:
@@ -515,8 +517,11 @@ impl Pdos {
         while due != 0 {
             let t = &mut self.tpdo[due.trailing_zeros() as usize % MAX_TPDOS];
             due &= due - 1;
-            t.count += 1;
-            if t.count >= t.ttype {
+            // One store either way: the count restarts at the SYNC that sends.
+            let count = t.count + 1;
+            if count < t.ttype {
+                t.count = count;
+            } else {
                 t.count = 0;
                 let data = pack(&ctx.od, &t.map);
                 ctx.out.send(Frame { id: t.id, rtr: false, len: t.map.len, data });
@@ -875,12 +880,12 @@ fn resolve(od: &Od, index: u16, count: u8, rx: bool, map: &mut Mapping) -> Resul
     let mut len = 0u8;
     for sub in 1..=count {
         let value = od.value(index, sub).ok_or(Abort::INVALID_VALUE)?;
-        let s = slice(od, value, rx)?;
-        len += s.bytes;
+        let (pos, bytes) = slice(od, value, rx)?;
+        map.slices[(sub - 1) as usize % MAX_MAPPED] = Slice { pos, at: len };
+        len += bytes;
         if len > 8 {
             return Err(Abort::PDO_LENGTH);
         }
-        map.slices[(sub - 1) as usize % MAX_MAPPED] = s;
     }
     map.count = count;
     map.len = len;
@@ -890,8 +895,8 @@ fn resolve(od: &Od, index: u16, count: u8, rx: bool, map: &mut Mapping) -> Resul
 
 /// One mapping entry (index << 16 | sub << 8 | bits) resolved: a PDO-mappable entry of at
 /// least that many bits (whole bytes), or, in an RPDO, a CiA 301 dummy (a data type index
-/// 0001h..0007h, sub 0).
-fn slice(od: &Od, value: u32, rx: bool) -> Result<Slice, Abort> {
+/// 0001h..0007h, sub 0): its dictionary position ([`NONE`] for a dummy) and its bytes.
+fn slice(od: &Od, value: u32, rx: bool) -> Result<(u8, u8), Abort> {
     let (index, sub, bits) = ((value >> 16) as u16, (value >> 8) as u8, value as u8);
     if bits == 0 || bits % 8 != 0 || bits > 32 {
         return Err(Abort::NOT_MAPPABLE);
@@ -901,14 +906,14 @@ fn slice(od: &Od, value: u32, rx: bool) -> Result<Slice, Abort> {
         // Bytes of the type, a nibble each from 0001h: BOOLEAN, INTEGER8 1; INTEGER16 2;
         // INTEGER32 4; UNSIGNED8 1; UNSIGNED16 2; UNSIGNED32 4.
         let size = (0x4214_2110u32 >> (4 * index)) as u8 & 0xF;
-        return if bytes == size { Ok(Slice { pos: NONE, bytes }) } else { Err(Abort::NOT_MAPPABLE) };
+        return if bytes == size { Ok((NONE, bytes)) } else { Err(Abort::NOT_MAPPABLE) };
     }
     let pos = od.find(index, sub)?;
     let e = od.entry(pos);
     if !e.pdo || bits > e.dtype.bits() {
         return Err(Abort::NOT_MAPPABLE);
     }
-    Ok(Slice { pos: pos as u8, bytes })
+    Ok((pos as u8, bytes))
 }
 
 /// [`pack`], not inlined: for every sender but the SYNC's transmissions.
@@ -920,24 +925,24 @@ fn packed(od: &Od, map: &Mapping) -> [u8; 8] {
 /// A TPDO's payload: each mapped value's low bytes, little-endian, in mapping order.
 #[inline(always)]
 fn pack(od: &Od, map: &Mapping) -> [u8; 8] {
-    // Every value is written as four bytes and the cursor moves by its mapped length: the
-    // bytes past a value's length are overwritten by the next value or cleared below. A
-    // mapping holds at most 8 bytes, so every value starts at 0..=7.
-    let mut buf = [0u8; 12];
-    let mut at = 0usize;
+    // Every value is written as four bytes at its place, resolved with the mapping: the bytes
+    // past a value's length are overwritten by the next value or cleared below. A mapping
+    // holds at most 8 bytes, so every value starts at 0..=7 and the payload ends at 0..=8;
+    // the buffer has room for a value at any place below 16 (what a mask gives without a
+    // compare).
+    let mut buf = [0u8; 19];
     for s in map.slices() {
         let v = od.get(s.pos as usize).to_le_bytes();
-        let i = at % 8;
+        let i = s.at as usize % 16;
         buf[i] = v[0];
         buf[i + 1] = v[1];
         buf[i + 2] = v[2];
         buf[i + 3] = v[3];
-        at += s.bytes as usize;
     }
     // Bytes past the payload are zero (`Frame::data` contract): the last value's bytes past
-    // the cursor (at most three) are cleared, the rest were never written. The cursor ends at
-    // the mapping's length, at most 8.
-    let end = at.min(8);
+    // the payload's end (at most three) are cleared, the rest were never written. The
+    // mapping's length is at most 8.
+    let end = map.len as usize % 16;
     buf[end] = 0;
     buf[end + 1] = 0;
     buf[end + 2] = 0;
@@ -951,12 +956,14 @@ fn pack(od: &Od, map: &Mapping) -> [u8; 8] {
 fn apply(od: &mut Od, map: &Mapping, data: &[u8; 8]) -> bool {
     let mut values = [0u32; MAX_MAPPED];
     let word = u64::from_le_bytes(*data);
-    let mut at = 0u32;
-    for (k, s) in map.slices().iter().enumerate() {
-        let n = s.bytes as u32;
+    // From the last slice back: each one's bytes run to where the one after it starts.
+    let mut end = map.len as u32;
+    for (k, s) in map.slices().iter().enumerate().rev() {
+        let at = s.at as u32;
+        let n = end - at;
+        end = at;
         // The slice's bytes, zero-extended (a mapping holds at most 8 bytes: `at` <= 7).
         let mut v = (word >> (8 * (at % 8))) as u32 & (u32::MAX >> (32 - 8 * n));
-        at += n;
         if s.pos == NONE {
             continue;
         }
