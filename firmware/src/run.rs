@@ -98,12 +98,7 @@ pub async fn run<D: CanopenDevice, I: Io<D>>(device: D, identity: u32, mcu: Mcu,
 /// ([`od_core::Station`], [`DeviceStation`]): `make` powers the node on from the parameter
 /// pages of the device whose images carry `identity` ([`run`]; inside this future, so that
 /// the node is stored once).
-pub async fn drive<N, I>(
-    mcu: Mcu,
-    identity: u32,
-    make: impl FnOnce(&mut Params, &[u8; 12]) -> N,
-    mut io: I,
-) -> !
+pub async fn drive<N, I>(mcu: Mcu, identity: u32, make: impl FnOnce(&mut Params, &[u8; 12]) -> N, mut io: I) -> !
 where
     N: DeviceStation,
     N::Device: Device,

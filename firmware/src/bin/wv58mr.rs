@@ -37,11 +37,6 @@ async fn main(_spawner: Spawner) {
     firmware::boot_time::start();
     let board = boards::wv58mr::take(TURNS);
     let device = Wv58mr::new(TURNS);
-    firmware::run::drive(
-        board.mcu,
-        IDENTITY,
-        |params, uid| firmware::run::boot_j1939(device, params, uid),
-        board.io,
-    )
-    .await
+    firmware::run::drive(board.mcu, IDENTITY, |params, uid| firmware::run::boot_j1939(device, params, uid), board.io)
+        .await
 }
