@@ -54,14 +54,7 @@ fn set_timing(rate: Bitrate, silent: bool) {
     } {}
     let silm = if silent { 1 << 31 } else { 0 };
     can.btr().write(|w| w.0 = timing::of(rate).btr() | silm);
-    can.mcr().modify(|w| {
-        w.set_sleep(true);
-        w.set_inrq(false);
-    });
-    while {
-        let msr = can.msr().read();
-        !msr.slak() || msr.inak()
-    } {}
+    boards::mcu::can_sleep();
 }
 
 /// The acceptance filters, written whole rather than through the driver's per-bank calls

@@ -77,10 +77,7 @@ impl Lcd {
         let spi = pac::SPI2;
         pac::GPIOB.brr().write(|w| w.0 = 1 << 12);
         for &b in bytes {
-            while !spi.sr().read().txe() {}
-            spi.dr().write(|w| w.set_dr(b as u16));
-            while !spi.sr().read().rxne() {}
-            let _ = spi.dr().read();
+            let _ = crate::mcu::spi_exchange(spi, b);
         }
         pac::GPIOB.bsrr().write(|w| w.0 = 1 << 12);
     }

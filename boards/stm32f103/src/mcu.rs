@@ -140,16 +140,24 @@ impl CanPeri {
             // of the firmware's that it could break.
             unsafe { irq.enable() };
         }
-        regs.mcr().modify(|w| {
-            w.set_sleep(true);
-            w.set_inrq(false);
-        });
-        while {
-            let msr = regs.msr().read();
-            !msr.slak() || msr.inak()
-        } {}
+        can_sleep();
         CanPeri(can)
     }
+}
+
+/// Requests the bxCAN's sleep mode, leaving initialisation mode (MCR SLEEP set, INRQ clear), and
+/// waits until the controller is there (MSR SLAK set, INAK clear); the end of the set-up and of
+/// every bit-timing change (RM0008 24.4).
+pub fn can_sleep() {
+    let regs = pac::CAN;
+    regs.mcr().modify(|w| {
+        w.set_sleep(true);
+        w.set_inrq(false);
+    });
+    while {
+        let msr = regs.msr().read();
+        !msr.slak() || msr.inak()
+    } {}
 }
 
 /// The independent watchdog, through its registers: the prescaler and reload value for
@@ -217,4 +225,14 @@ impl Mcu {
             uid: embassy_stm32::uid::uid(),
         }
     }
+}
+
+/// Sends `out` on `spi` (a master, enabled) and returns the byte received meanwhile: waits for
+/// room in the transmit buffer, writes, waits for the received byte and reads it (reading it
+/// also keeps the SPI from an overrun).
+pub(crate) fn spi_exchange(spi: pac::spi::Spi, out: u8) -> u8 {
+    while !spi.sr().read().txe() {}
+    spi.dr().write(|w| w.set_dr(out as u16));
+    while !spi.sr().read().rxne() {}
+    spi.dr().read().dr() as u8
 }

@@ -74,10 +74,7 @@ impl PositionSensor for AngleSensor {
         }
         pac::GPIOA.brr().write(|w| w.0 = 1 << 4);
         for b in frame.iter_mut() {
-            while !spi.sr().read().txe() {}
-            spi.dr().write(|w| w.set_dr(0));
-            while !spi.sr().read().rxne() {}
-            *b = spi.dr().read().dr() as u8;
+            *b = crate::mcu::spi_exchange(spi, 0);
         }
         pac::GPIOA.bsrr().write(|w| w.0 = 1 << 4);
         let sr = spi.sr().read();
